@@ -1,0 +1,1 @@
+"""Controller building blocks that join the pipeline stages (feedforward, command assembly)."""

@@ -1,0 +1,50 @@
+"""Quasi-static torque feedforward: gravity compensation with a planned contact-force distribution.
+
+For a configuration ``q`` (Pinocchio, base in the world frame) with feet in contact carrying
+shares ``α_i`` (Σ α_i = 1) of the weight, find sole wrenches ``f_i`` (sole frame, about its
+origin) that balance gravity on the floating base, closest to the planned split::
+
+    f_ref,i = α_i [0, 0, m g, 0, 0, 0]
+    f = f_ref + W Jbᵀ (Jb W Jbᵀ)⁻¹ (g_b − Jb f_ref),   Jb = [J_1,bᵀ … J_k,bᵀ],  W = diag(α_i I₆)
+
+(``J_i`` the LOCAL frame Jacobian of sole i, ``g`` the generalized gravity, subscript b the six
+base rows), then the joint torques that hold the posture statically: ``τ = g_j − Σ J_i,jᵀ f_i``.
+A position-controlled robot sent ``τ`` as feedforward keeps its servos near zero position error
+under load, so its real posture matches the IK reference.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+
+def static_torques(model: pin.Model, data: pin.Data, q: np.ndarray, sole_frames: list[int],
+                   shares: list[float]) -> tuple[np.ndarray, list[np.ndarray]]:
+    """Return ``(tau, wrenches)``: torques (nv, base rows ≈ 0) and one sole-frame wrench per contact.
+
+    ``shares`` must be positive; they are normalized to sum to one.
+    """
+    alpha = np.asarray(shares, dtype=float)
+    alpha = alpha / alpha.sum()
+    g = pin.computeGeneralizedGravity(model, data, q).copy()
+    pin.computeJointJacobians(model, data, q)
+    pin.updateFramePlacements(model, data)
+    J = np.vstack([pin.getFrameJacobian(model, data, f, pin.LOCAL) for f in sole_frames])  # (6k, nv)
+    weight = sum(inertia.mass for inertia in model.inertias) * np.linalg.norm(model.gravity.linear)
+    f_ref = np.concatenate([a * np.array([0.0, 0.0, weight, 0.0, 0.0, 0.0]) for a in alpha])
+    Jb = J[:, :6].T  # (6, 6k)
+    W = np.repeat(alpha, 6)
+    residual = g[:6] - Jb @ f_ref
+    f = f_ref + W * (Jb.T @ np.linalg.solve((Jb * W) @ Jb.T, residual))
+    tau = g - J.T @ f
+    return tau, list(f.reshape(-1, 6))
+
+
+def weight_shares(com_xy: np.ndarray, left_xy: np.ndarray, right_xy: np.ndarray, floor: float = 0.02) -> tuple[float, float]:
+    """Left/right weight shares from the CoM's position along the segment between the sole centres
+    (0 at the right foot, 1 at the left), kept in ``[floor, 1 - floor]`` so both stay positive."""
+    axis = left_xy - right_xy
+    s = float(np.dot(com_xy - right_xy, axis) / np.dot(axis, axis))
+    s = min(max(s, floor), 1.0 - floor)
+    return s, 1.0 - s

@@ -1,0 +1,112 @@
+"""HardwareAdapter: the lifecycle and read/write interface every backend implements.
+
+Lifecycle (after ros2_control)::
+
+    UNCONFIGURED --configure--> INACTIVE --activate--> ACTIVE --deactivate--> INACTIVE
+    any state --estop--> ESTOP (latched)        a backend failure --> FAULT
+    any state --close--> closed (no further calls)
+
+``read()`` works once configured; ``write()`` only while ACTIVE. Commands are validated here,
+before a backend sees them, so a NaN or a malformed array never reaches an actuator.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+
+from robot_ctrl.hw.types import JointCommand, JointState, LifecycleState
+
+S = LifecycleState
+
+
+class LifecycleError(RuntimeError):
+    """A call was made in a lifecycle state that does not allow it."""
+
+
+class HardwareAdapter(ABC):
+    def __init__(self, nj: int):
+        self.nj = nj
+        self._state = S.UNCONFIGURED
+        self._closed = False
+
+    @property
+    def state(self) -> LifecycleState:
+        return self._state
+
+    def _require(self, call: str, *allowed: LifecycleState) -> None:
+        if self._closed:
+            raise LifecycleError(f"{call}() after close()")
+        if self._state not in allowed:
+            names = ", ".join(s.value for s in allowed)
+            raise LifecycleError(f"{call}() is not allowed in state {self._state.value!r} (allowed: {names})")
+
+    def configure(self) -> None:
+        self._require("configure", S.UNCONFIGURED)
+        self._guarded(self._on_configure)
+        self._state = S.INACTIVE
+
+    def activate(self) -> None:
+        self._require("activate", S.INACTIVE)
+        self._guarded(self._on_activate)
+        self._state = S.ACTIVE
+
+    def deactivate(self) -> None:
+        self._require("deactivate", S.ACTIVE)
+        self._guarded(self._on_deactivate)
+        self._state = S.INACTIVE
+
+    def estop(self) -> None:
+        """Latch the emergency stop: the backend puts its servos in a safe (damping) mode."""
+        if self._closed or self._state is S.ESTOP:
+            return
+        self._on_estop()
+        self._state = S.ESTOP
+
+    def close(self) -> None:
+        if not self._closed:
+            self._on_close()
+            self._closed = True
+
+    def read(self) -> JointState:
+        self._require("read", S.INACTIVE, S.ACTIVE, S.FAULT, S.ESTOP)
+        return self._guarded(self._read)
+
+    def write(self, command: JointCommand) -> None:
+        self._require("write", S.ACTIVE)
+        command.validate(self.nj)
+        self._guarded(lambda: self._write(command))
+
+    def _guarded(self, call):
+        try:
+            return call()
+        except Exception:
+            self._state = S.FAULT
+            raise
+
+    # Backend hooks.
+    @abstractmethod
+    def _on_configure(self) -> None: ...
+
+    def _on_activate(self) -> None:
+        pass
+
+    def _on_deactivate(self) -> None:
+        pass
+
+    @abstractmethod
+    def _on_estop(self) -> None: ...
+
+    def _on_close(self) -> None:
+        pass
+
+    @abstractmethod
+    def _read(self) -> JointState: ...
+
+    @abstractmethod
+    def _write(self, command: JointCommand) -> None: ...
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()

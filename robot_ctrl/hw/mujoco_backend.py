@@ -1,0 +1,193 @@
+"""MuJoCo simulation backend of the hardware interface, stepping the physics in lock-step.
+
+Each ``write()`` applies the servo command and advances the simulation by one control period
+(``control_dt / timestep`` physics steps). ``read()`` returns the state at the current time.
+The robot starts in its half-sitting posture with the lowest point of its feet on the floor.
+"""
+
+from __future__ import annotations
+
+import time
+
+import mujoco
+import numpy as np
+
+from robot_ctrl.hw.adapter import HardwareAdapter
+from robot_ctrl.hw.types import JointCommand, JointState
+from robot_ctrl.robot.joint_map import MujocoJointMap, pin_to_mujoco_qpos
+from robot_ctrl.robot.model import RobotModel
+
+
+class MujocoBackend(HardwareAdapter):
+    """Simulated robot. ``base_xy_yaw`` places the robot's start pose in the world (m, m, rad)."""
+
+    def __init__(self, robot: RobotModel, control_dt: float = 0.005, base_xy_yaw=(0.0, 0.0, 0.0),
+                 viewer: bool = False):
+        super().__init__(robot.nj)
+        self.robot = robot
+        self.m = mujoco.MjModel.from_xml_path(str(robot.mjcf_path))
+        self.d = mujoco.MjData(self.m)
+        self.n_substeps = round(control_dt / self.m.opt.timestep)
+        if self.n_substeps < 1 or abs(self.n_substeps * self.m.opt.timestep - control_dt) > 1e-9:
+            raise ValueError(f"control_dt = {control_dt} s must be a positive multiple of the physics step "
+                             f"{self.m.opt.timestep} s")
+        self.control_dt = control_dt
+        self.map = MujocoJointMap.build(self.m, robot.joint_names, f"{robot.name}/", robot.config.base_link)
+        self._start = np.asarray(base_xy_yaw, dtype=float)
+        self._want_viewer = viewer
+        self._viewer = None
+        self._wall0 = 0.0
+
+        prefix = self.map.prefix
+        floor = self.m.geom("floor").id
+        self._floor = floor
+        # A foot is every body welded to the link that carries the sole frame.
+        self._sole_body = {}
+        self._foot_weld = {}
+        for side, frame in robot.config.feet.items():
+            body = self.m.body(prefix + frame).id
+            self._sole_body[side] = body
+            self._foot_weld[side] = self.m.body_weldid[body]
+        robot_bodies = np.flatnonzero(
+            np.array([self.m.body(i).name.startswith(prefix) for i in range(self.m.nbody)]))
+        self._robot_bodies = set(robot_bodies.tolist())
+        self._act = self.map.actuator
+        self._tau_demand = np.zeros(self.nj)
+        self._force = np.zeros(6)
+
+    # Lifecycle hooks --------------------------------------------------------------------------
+    def _on_configure(self) -> None:
+        mujoco.mj_resetData(self.m, self.d)
+        x, y, yaw = self._start
+        q = self.robot.q_half_sitting.copy()
+        q[:2] = x, y
+        q[3:7] = [0.0, 0.0, np.sin(yaw / 2), np.cos(yaw / 2)]
+        pin_to_mujoco_qpos(q, self.robot.q_index, self.map, self.d.qpos)
+        mujoco.mj_kinematics(self.m, self.d)
+        self.d.qpos[self.map.base_qpos + 2] -= self._lowest_foot_point()
+        mujoco.mj_forward(self.m, self.d)
+        self._apply_gains(self.robot.kp, self.robot.kd, np.zeros(self.nj), np.zeros(self.nj))
+        self.d.ctrl[self._act] = self.d.qpos[self.map.qpos]
+
+    def _on_activate(self) -> None:
+        if self._want_viewer and self._viewer is None:
+            import mujoco.viewer
+
+            self._viewer = mujoco.viewer.launch_passive(self.m, self.d)
+        self._wall0 = time.perf_counter() - self.d.time
+
+    def _on_estop(self) -> None:
+        # Damping mode: no stiffness, no feedforward, joint damping kept.
+        self._apply_gains(np.zeros(self.nj), self.robot.kd, np.zeros(self.nj), np.zeros(self.nj))
+
+    def _on_close(self) -> None:
+        if self._viewer is not None:
+            self._viewer.close()
+            self._viewer = None
+
+    # Read / write -----------------------------------------------------------------------------
+    def _apply_gains(self, kp, kd, dq, tau_ff) -> None:
+        a = self._act
+        self.m.actuator_gainprm[a, 0] = kp
+        self.m.actuator_biasprm[a, 1] = -kp
+        self.m.actuator_biasprm[a, 2] = -kd
+        self.m.actuator_biasprm[a, 0] = kd * dq + tau_ff
+
+    def _write(self, cmd: JointCommand) -> None:
+        self._apply_gains(cmd.kp, cmd.kd, cmd.dq, cmd.tau_ff)
+        self.d.ctrl[self._act] = cmd.q
+        qa, va = self.map.qpos, self.map.dof
+        bias = self.m.actuator_biasprm[self._act]
+        for _ in range(self.n_substeps):
+            demand = cmd.kp * cmd.q + bias[:, 0] + bias[:, 1] * self.d.qpos[qa] + bias[:, 2] * self.d.qvel[va]
+            peak = np.abs(demand) > np.abs(self._tau_demand)
+            self._tau_demand[peak] = demand[peak]
+            mujoco.mj_step(self.m, self.d)
+        if self._viewer is not None:
+            self._viewer.sync()
+            lag = self.d.time - (time.perf_counter() - self._wall0)
+            if lag > 0:  # pace the viewer at real time
+                time.sleep(lag)
+
+    def _read(self) -> JointState:
+        m, d, mp = self.m, self.d, self.map
+        b, v = mp.base_qpos, mp.base_dof
+        wxyz = d.qpos[b + 3 : b + 7]
+        rot = d.xmat[mp.base_body].reshape(3, 3)
+        state = JointState(
+            t=float(d.time),
+            q=d.qpos[mp.qpos].copy(),
+            dq=d.qvel[mp.dof].copy(),
+            tau=d.actuator_force[self._act].copy(),
+            base_pos=d.qpos[b : b + 3].copy(),
+            base_quat_xyzw=np.array([wxyz[1], wxyz[2], wxyz[3], wxyz[0]]),
+            base_linvel=d.qvel[v : v + 3].copy(),
+            base_angvel=d.qvel[v + 3 : v + 6].copy(),  # MuJoCo's free-joint angular velocity is body-frame
+            base_linacc=rot.T @ (d.qacc[v : v + 3] - m.opt.gravity),
+            foot_wrench=self._foot_wrenches(),
+            tau_demand=self._tau_demand.copy(),
+            floor_contacts=self._floor_contacts(),
+        )
+        self._tau_demand[:] = 0.0
+        return state
+
+    # Contacts -----------------------------------------------------------------------------------
+    def _foot_side(self, geom: int) -> str | None:
+        weld = self.m.body_weldid[self.m.geom_bodyid[geom]]
+        for side, foot in self._foot_weld.items():
+            if weld == foot:
+                return side
+        return None
+
+    def _foot_wrenches(self) -> dict[str, np.ndarray]:
+        """Floor-on-foot wrench per side, in the sole frame about the sole origin."""
+        m, d = self.m, self.d
+        world = {side: np.zeros(6) for side in self._sole_body}  # force, torque about sole origin
+        for i in range(d.ncon):
+            c = d.contact[i]
+            if self._floor not in (c.geom1, c.geom2):
+                continue
+            other = c.geom2 if c.geom1 == self._floor else c.geom1
+            side = self._foot_side(other)
+            if side is None:
+                continue
+            mujoco.mj_contactForce(m, d, i, self._force)
+            # The contact frame's normal points from geom1 to geom2; the force acts on geom2.
+            f = c.frame.reshape(3, 3).T @ self._force[:3]
+            if other == c.geom1:
+                f = -f
+            r = c.pos - d.xpos[self._sole_body[side]]
+            world[side][:3] += f
+            world[side][3:] += np.cross(r, f)
+        out = {}
+        for side, w in world.items():
+            rot = d.xmat[self._sole_body[side]].reshape(3, 3)
+            out[side] = np.concatenate([rot.T @ w[:3], rot.T @ w[3:]])
+        return out
+
+    def _floor_contacts(self) -> tuple[str, ...]:
+        names = set()
+        for i in range(self.d.ncon):
+            c = self.d.contact[i]
+            if self._floor not in (c.geom1, c.geom2):
+                continue
+            other = c.geom2 if c.geom1 == self._floor else c.geom1
+            body = self.m.geom_bodyid[other]
+            if body in self._robot_bodies and self._foot_side(other) is None:
+                names.add(self.m.body(body).name[len(self.map.prefix):])
+        return tuple(sorted(names))
+
+    def _lowest_foot_point(self) -> float:
+        """Lowest world z of the feet's collision geometry (corners of each geom's bounding box)."""
+        lowest = np.inf
+        corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
+        for g in range(self.m.ngeom):
+            if self.m.geom_contype[g] == 0 and self.m.geom_conaffinity[g] == 0:
+                continue
+            if self._foot_side(g) is None:
+                continue
+            center, half = self.m.geom_aabb[g, :3], self.m.geom_aabb[g, 3:]
+            local = center + corners * half
+            world = self.d.geom_xpos[g] + local @ self.d.geom_xmat[g].reshape(3, 3).T
+            lowest = min(lowest, world[:, 2].min())
+        return float(lowest)

@@ -1,0 +1,86 @@
+"""What crosses the hardware interface: the measured JointState and the JointCommand.
+
+Per-joint arrays are in the robot config's joint order (``RobotConfig.joint_names``). SI units:
+m, rad, s, N, N·m.
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+class LifecycleState(enum.Enum):
+    UNCONFIGURED = "unconfigured"
+    INACTIVE = "inactive"
+    ACTIVE = "active"
+    FAULT = "fault"
+    ESTOP = "estop"
+
+
+class CommandError(ValueError):
+    """A JointCommand was rejected before reaching any actuator. The message names the field."""
+
+
+@dataclass(frozen=True)
+class JointState:
+    """One sample of the robot's measured state.
+
+    Optional fields are ``None`` where the backend has no such sensor.
+
+    - ``base_pos`` [m], ``base_quat_xyzw``: pose of the base link in the world frame
+      (z up, floor at z = 0).
+    - ``base_linvel`` [m/s]: base-link origin velocity in the world frame.
+    - ``base_angvel`` [rad/s], ``base_linacc`` [m/s²]: gyro and accelerometer (proper
+      acceleration, gravity included) in the base-link frame, as an IMU on the base reads them.
+    - ``foot_wrench``: per side ("left"/"right"), the contact wrench the floor exerts on the foot,
+      ``[fx, fy, fz, mx, my, mz]`` [N, N·m] expressed in the sole frame about its origin,
+      as a force/torque sensor moved to the sole would read it.
+    - ``tau``: torque applied by each joint's servo, after saturation [N·m].
+    - ``tau_demand``: per joint, the signed servo torque of largest magnitude demanded *before*
+      saturation since the last read [N·m] (simulation backends; shows a saturating servo).
+    - ``floor_contacts``: names of bodies other than the feet that touch the floor (simulation).
+    """
+
+    t: float
+    q: np.ndarray
+    dq: np.ndarray
+    tau: np.ndarray
+    base_pos: np.ndarray | None = None
+    base_quat_xyzw: np.ndarray | None = None
+    base_linvel: np.ndarray | None = None
+    base_angvel: np.ndarray | None = None
+    base_linacc: np.ndarray | None = None
+    foot_wrench: dict[str, np.ndarray] | None = None
+    tau_demand: np.ndarray | None = None
+    floor_contacts: tuple[str, ...] = field(default=())
+
+
+@dataclass(frozen=True)
+class JointCommand:
+    """Servo command per joint: ``tau = kp (q - q_meas) + kd (dq - dq_meas) + tau_ff``.
+
+    ``q`` [rad], ``dq`` [rad/s], ``kp`` [N·m/rad], ``kd`` [N·m·s/rad], ``tau_ff`` [N·m].
+    """
+
+    q: np.ndarray
+    dq: np.ndarray
+    kp: np.ndarray
+    kd: np.ndarray
+    tau_ff: np.ndarray
+
+    def validate(self, nj: int) -> None:
+        """Raise CommandError unless every field has ``nj`` finite entries and gains are ≥ 0."""
+        for name in ("q", "dq", "kp", "kd", "tau_ff"):
+            value = np.asarray(getattr(self, name))
+            if value.shape != (nj,):
+                raise CommandError(f"JointCommand.{name} has shape {value.shape}, expected ({nj},)")
+            bad = np.flatnonzero(~np.isfinite(value))
+            if bad.size:
+                raise CommandError(f"JointCommand.{name} is not finite at joint indices {bad.tolist()}")
+        for name in ("kp", "kd"):
+            bad = np.flatnonzero(np.asarray(getattr(self, name)) < 0)
+            if bad.size:
+                raise CommandError(f"JointCommand.{name} must be >= 0; negative at joint indices {bad.tolist()}")

@@ -1,0 +1,161 @@
+"""Robot configuration: the immutable description of a robot read from ``configs/robots/<name>.yaml``.
+
+Everything here is static data (frames, posture, gains, limits). Mutable state lives elsewhere.
+Units are SI; angles in radians.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Mapping
+
+import yaml
+
+from robot_ctrl import ROOT
+
+CONFIG_DIR = ROOT / "configs" / "robots"
+
+
+class ConfigError(ValueError):
+    """A configuration file is missing, malformed or out of range. The message names the field."""
+
+
+@dataclass(frozen=True)
+class FootGeometry:
+    """Sole rectangle in the sole frame (x forward, y left) [m]."""
+
+    length: float
+    width: float
+    center_offset: tuple[float, float]
+
+
+@dataclass(frozen=True)
+class ServoGains:
+    """Position-servo gain rule: kp = kp_per_effort * effort limit, kd from a damping ratio."""
+
+    kp_per_effort: float
+    damping_ratio: float
+    armature: str | float  # "srdf" or a rotor inertia reflected to the joint [kg·m²]
+
+
+@dataclass(frozen=True)
+class RobotConfig:
+    """Static description of one robot (see ``configs/robots/talos.yaml`` for the fields)."""
+
+    name: str
+    package_dir: str
+    urdf: str
+    srdf: str | None
+    base_link: str
+    feet: Mapping[str, str]  # side ("left"/"right") -> sole frame
+    hands: Mapping[str, str]  # side -> hand frame
+    torso: str
+    waist: str
+    foot: FootGeometry
+    joint_names: tuple[str, ...]  # the robot's joint order for every hardware array
+    half_sitting: tuple[float, ...]  # [rad], in joint_names order
+    servo: ServoGains
+    position_margin: float  # [rad]
+    velocity_fraction: float
+    timestep: float  # [s] physics step of the simulation backend
+
+    @property
+    def frames(self) -> dict[str, str]:
+        """Every named operational frame: ``left_foot``, ``right_hand``, ``torso``, ``waist``..."""
+        out = {f"{side}_foot": f for side, f in self.feet.items()}
+        out.update({f"{side}_hand": f for side, f in self.hands.items()})
+        out.update(torso=self.torso, waist=self.waist)
+        return out
+
+
+def available_robots() -> list[str]:
+    return sorted(p.stem for p in CONFIG_DIR.glob("*.yaml"))
+
+
+def load_robot_config(name_or_path: str | Path) -> RobotConfig:
+    """Load and validate a robot config by robot name (``talos``) or by YAML path."""
+    path = Path(name_or_path)
+    if path.suffix not in (".yaml", ".yml"):
+        path = CONFIG_DIR / f"{name_or_path}.yaml"
+        if not path.is_file():
+            raise ConfigError(
+                f"unknown robot {str(name_or_path)!r}; available robots: {', '.join(available_robots())}"
+            )
+    try:
+        raw = yaml.safe_load(path.read_text())
+    except (OSError, yaml.YAMLError) as exc:
+        raise ConfigError(f"cannot read robot config {path}: {exc}") from exc
+    return parse_robot_config(raw, source=str(path))
+
+
+def _field(raw: Mapping[str, Any], key: str, source: str, kind: type | tuple[type, ...] = object) -> Any:
+    if not isinstance(raw, Mapping) or key not in raw:
+        raise ConfigError(f"{source}: missing field {key!r}")
+    value = raw[key]
+    if not isinstance(value, kind):
+        raise ConfigError(f"{source}: field {key!r} must be {getattr(kind, '__name__', kind)}, got {value!r}")
+    return value
+
+
+def _number(raw: Mapping[str, Any], key: str, source: str, lo: float, hi: float) -> float:
+    value = _field(raw, key, source, (int, float))
+    if not (math.isfinite(value) and lo <= value <= hi):
+        raise ConfigError(f"{source}: field {key!r} = {value} is outside the allowed range [{lo}, {hi}]")
+    return float(value)
+
+
+def parse_robot_config(raw: Mapping[str, Any], source: str = "robot config") -> RobotConfig:
+    """Validate a parsed YAML mapping into a :class:`RobotConfig`; errors name the offending field."""
+    desc = _field(raw, "description", source, Mapping)
+    frames = _field(raw, "frames", source, Mapping)
+    feet = _field(frames, "feet", f"{source}: frames", Mapping)
+    hands = _field(frames, "hands", f"{source}: frames", Mapping)
+    for group, sides in (("feet", feet), ("hands", hands)):
+        if set(sides) != {"left", "right"}:
+            raise ConfigError(f"{source}: frames.{group} must have exactly the keys 'left' and 'right'")
+    foot = _field(raw, "foot", source, Mapping)
+    offset = _field(foot, "center_offset", f"{source}: foot", list)
+    if len(offset) != 2:
+        raise ConfigError(f"{source}: foot.center_offset must be [x, y] in metres")
+    posture = _field(raw, "half_sitting", source, Mapping)
+    if not posture:
+        raise ConfigError(f"{source}: half_sitting must list every actuated joint")
+    for joint, angle in posture.items():
+        if not isinstance(angle, (int, float)) or not math.isfinite(angle) or abs(angle) > 2 * math.pi:
+            raise ConfigError(f"{source}: half_sitting.{joint} = {angle!r} must be a finite angle in [-2π, 2π] rad")
+    servo = _field(raw, "servo", source, Mapping)
+    armature = _field(servo, "armature", f"{source}: servo", (str, int, float))
+    if isinstance(armature, str) and armature != "srdf":
+        raise ConfigError(f"{source}: servo.armature must be 'srdf' or a number [kg·m²], got {armature!r}")
+    if not isinstance(armature, str) and not (0.0 <= armature <= 10.0):
+        raise ConfigError(f"{source}: servo.armature = {armature} is outside the allowed range [0, 10] kg·m²")
+    limits = _field(raw, "limits", source, Mapping)
+    sim = _field(raw, "simulation", source, Mapping)
+    return RobotConfig(
+        name=_field(raw, "name", source, str),
+        package_dir=_field(desc, "package_dir", f"{source}: description", str),
+        urdf=_field(desc, "urdf", f"{source}: description", str),
+        srdf=desc.get("srdf"),
+        base_link=_field(desc, "base_link", f"{source}: description", str),
+        feet=dict(feet),
+        hands=dict(hands),
+        torso=_field(frames, "torso", f"{source}: frames", str),
+        waist=_field(frames, "waist", f"{source}: frames", str),
+        foot=FootGeometry(
+            length=_number(foot, "length", f"{source}: foot", 0.01, 1.0),
+            width=_number(foot, "width", f"{source}: foot", 0.01, 1.0),
+            center_offset=(float(offset[0]), float(offset[1])),
+        ),
+        joint_names=tuple(posture),
+        half_sitting=tuple(float(a) for a in posture.values()),
+        servo=ServoGains(
+            kp_per_effort=_number(servo, "kp_per_effort", f"{source}: servo", 0.1, 1000.0),
+            damping_ratio=_number(servo, "damping_ratio", f"{source}: servo", 0.0, 10.0),
+            armature=armature if isinstance(armature, str) else float(armature),
+        ),
+        position_margin=_number(limits, "position_margin", f"{source}: limits", 0.0, 0.5),
+        velocity_fraction=_number(limits, "velocity_fraction", f"{source}: limits", 0.01, 1.0),
+        timestep=_number(sim, "timestep", f"{source}: simulation", 1e-4, 0.01),
+    )

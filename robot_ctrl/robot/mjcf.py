@@ -1,0 +1,107 @@
+"""Conversion of a robot's URDF into a cached MuJoCo scene (MJCF).
+
+The scene is ``sim/floor.xml`` with the robot attached under the name prefix ``<robot>/``:
+free-floating base, one position servo per actuated joint, self-collision exclusions from
+the SRDF, ``implicitfast`` integrator and the config's physics step. The result is written
+to a cache (``$ROBOT_CTRL_CACHE`` or ``~/.cache/robot_ctrl``) keyed by a hash of everything
+that goes into it; nothing generated is ever committed.
+
+Servo model (MuJoCo ``general`` actuator, gain ``fixed``, bias ``affine``)::
+
+    tau = kp * ctrl + b0 - kp * q - kd * dq,   clipped to ±effort limit
+
+with ``ctrl = q_des`` and ``b0 = kd * dq_des + tau_ff`` set by the hardware backend at each
+write, which is exactly the servo law ``kp (q_des - q) + kd (dq_des - dq) + tau_ff``. The
+velocity term is integrated implicitly by ``implicitfast``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import tempfile
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from robot_ctrl import ROOT, __version__
+from robot_ctrl.robot.config import ConfigError, RobotConfig
+from robot_ctrl.robot.description import RobotFiles, example_robot_data_version, read_srdf, resolve_package_uris
+
+SCENE = ROOT / "sim" / "floor.xml"
+_COMPILER = '<mujoco><compiler strippath="false" discardvisual="true" fusestatic="false" autolimits="true"/></mujoco>'
+
+
+def cache_dir() -> Path:
+    return Path(os.environ.get("ROBOT_CTRL_CACHE", Path.home() / ".cache" / "robot_ctrl"))
+
+
+def robot_spec(config: RobotConfig, files: RobotFiles, kp: np.ndarray, kd: np.ndarray,
+               effort: np.ndarray, armature: np.ndarray) -> mujoco.MjSpec:
+    """The robot alone as an ``MjSpec``: free base, servos, armature and SRDF exclusions.
+
+    ``kp``, ``kd``, ``effort``, ``armature`` are in the config's joint order.
+    """
+    urdf = resolve_package_uris(files.urdf.read_text())
+    head = urdf.index(">", urdf.index("<robot")) + 1
+    # fusestatic must stay off: otherwise the root link merges into the world (no floating base).
+    spec = mujoco.MjSpec.from_string(urdf[:head] + _COMPILER + urdf[head:])
+    root = spec.worldbody.first_body()
+    if root.name != config.base_link:
+        raise ConfigError(f"description.base_link {config.base_link!r} is not the URDF root (root is {root.name!r})")
+    root.add_freejoint(name="root")
+    hinges = {j.name: j for j in spec.joints if j.type == mujoco.mjtJoint.mjJNT_HINGE}
+    missing = [n for n in config.joint_names if n not in hinges]
+    if missing:
+        raise ConfigError(f"half_sitting names joints not in the URDF: {missing}; the URDF has: {sorted(hinges)}")
+    for i, name in enumerate(config.joint_names):
+        hinges[name].armature = float(armature[i])
+        act = spec.add_actuator()
+        act.name = name
+        act.target = name
+        act.trntype = mujoco.mjtTrn.mjTRN_JOINT
+        act.gaintype = mujoco.mjtGain.mjGAIN_FIXED
+        act.gainprm[0] = kp[i]
+        act.biastype = mujoco.mjtBias.mjBIAS_AFFINE
+        act.biasprm[0:3] = [0.0, -kp[i], -kd[i]]
+        act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
+        act.forcerange = [-effort[i], effort[i]]
+        act.ctrllimited = mujoco.mjtLimited.mjLIMITED_FALSE
+    bodies = {b.name for b in spec.bodies}
+    for a, b in read_srdf(files.srdf).disabled_collisions:
+        if a in bodies and b in bodies:
+            ex = spec.add_exclude()
+            ex.bodyname1, ex.bodyname2 = a, b
+    return spec
+
+
+def scene_spec(robots: dict[str, mujoco.MjSpec], timestep: float, scene: Path = SCENE) -> mujoco.MjSpec:
+    """Attach each robot spec to the scene under the prefix ``<key>/``."""
+    spec = mujoco.MjSpec.from_file(str(scene))
+    spec.option.timestep = timestep
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    for prefix, robot in robots.items():
+        spec.attach(robot, frame=spec.worldbody.add_frame(), prefix=f"{prefix}/")
+    return spec
+
+
+def cached_scene_mjcf(config: RobotConfig, files: RobotFiles, kp: np.ndarray, kd: np.ndarray,
+                      effort: np.ndarray, armature: np.ndarray) -> Path:
+    """Path of the cached single-robot scene MJCF, converting it first if the cache lacks it."""
+    key = hashlib.sha256()
+    for part in (__version__, mujoco.__version__, example_robot_data_version(), repr(config),
+                 files.urdf.read_bytes(), files.srdf.read_bytes() if files.srdf else b"",
+                 SCENE.read_bytes(), kp.tobytes(), kd.tobytes(), effort.tobytes(), armature.tobytes()):
+        key.update(part if isinstance(part, bytes) else part.encode())
+    path = cache_dir() / f"{config.name}-{key.hexdigest()[:16]}.xml"
+    if path.is_file():
+        return path
+    spec = scene_spec({config.name: robot_spec(config, files, kp, kd, effort, armature)}, config.timestep)
+    spec.compile()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    # Write to a temporary file and rename, so a concurrent or interrupted run never sees half a file.
+    with tempfile.NamedTemporaryFile("w", dir=path.parent, suffix=".tmp", delete=False) as tmp:
+        tmp.write(spec.to_xml())
+    os.replace(tmp.name, path)
+    return path

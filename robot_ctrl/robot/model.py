@@ -1,0 +1,123 @@
+"""RobotModel: the immutable Pinocchio model of a robot with its config, limits and servo gains.
+
+Arrays named per joint (``lower``, ``effort``, ``kp``...) are in the config's joint order, the
+order used at the hardware interface. ``q_index``/``v_index`` place those joints in Pinocchio's
+configuration and velocity vectors. Mutable computation buffers (``pinocchio.Data``) belong to
+the caller: ``model.pin.createData()``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from robot_ctrl.robot.config import ConfigError, RobotConfig, load_robot_config
+from robot_ctrl.robot.description import RobotFiles, read_srdf, robot_files
+from robot_ctrl.robot.mjcf import cached_scene_mjcf
+
+
+@dataclass(frozen=True, eq=False)
+class RobotModel:
+    config: RobotConfig
+    files: RobotFiles
+    pin: pin.Model  # free-flyer model, armature set from the config
+    q_index: np.ndarray  # Pinocchio q index of each joint
+    v_index: np.ndarray  # Pinocchio v index of each joint
+    frame_ids: dict[str, int]  # role ("left_foot", "right_hand", "torso", ...) -> Pinocchio frame id
+    lower: np.ndarray  # URDF position limits [rad]
+    upper: np.ndarray
+    velocity_limit: np.ndarray  # URDF [rad/s]
+    effort: np.ndarray  # URDF effort limit [N·m]
+    armature: np.ndarray  # reflected rotor inertia [kg·m²]
+    kp: np.ndarray  # default servo stiffness [N·m/rad]
+    kd: np.ndarray  # default servo damping [N·m·s/rad]
+    q_half_sitting: np.ndarray  # Pinocchio configuration, base at the world origin
+
+    @property
+    def name(self) -> str:
+        return self.config.name
+
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        return self.config.joint_names
+
+    @property
+    def nj(self) -> int:
+        return len(self.config.joint_names)
+
+    @cached_property
+    def mass(self) -> float:
+        return float(sum(inertia.mass for inertia in self.pin.inertias))
+
+    @cached_property
+    def mjcf_path(self) -> Path:
+        """The cached MuJoCo scene of this robot on the floor (converted on first use)."""
+        return cached_scene_mjcf(self.config, self.files, self.kp, self.kd, self.effort, self.armature)
+
+    def joints_from_q(self, q: np.ndarray) -> np.ndarray:
+        """Joint angles in the robot's joint order from a Pinocchio configuration."""
+        return q[self.q_index]
+
+
+def load_robot(name_or_config: str | RobotConfig) -> RobotModel:
+    """Build the RobotModel for a robot name (``talos``), YAML path or parsed config."""
+    config = name_or_config if isinstance(name_or_config, RobotConfig) else load_robot_config(name_or_config)
+    files = robot_files(config)
+    model = pin.buildModelFromUrdf(str(files.urdf), pin.JointModelFreeFlyer())
+
+    names = list(model.names)
+    missing = [n for n in config.joint_names if n not in names]
+    if missing:
+        raise ConfigError(f"half_sitting names joints not in the URDF: {missing}; the URDF has: {names[2:]}")
+    jids = [model.getJointId(n) for n in config.joint_names]
+    if any(model.joints[j].nq != 1 for j in jids):
+        raise ConfigError("every joint in half_sitting must be a 1-dof revolute or prismatic joint")
+    q_index = np.array([model.joints[j].idx_q for j in jids])
+    v_index = np.array([model.joints[j].idx_v for j in jids])
+
+    frame_ids = {}
+    for role, frame in config.frames.items():
+        if not model.existFrame(frame):
+            have = sorted({f.name for f in model.frames if f.type == pin.FrameType.BODY})
+            raise ConfigError(f"frame {frame!r} ({role}) not in the URDF; body frames: {have}")
+        frame_ids[role] = model.getFrameId(frame)
+
+    if config.servo.armature == "srdf":
+        rotor = read_srdf(files.srdf).rotor_armature
+        armature = np.array([rotor.get(n, 0.0) for n in config.joint_names])
+    else:
+        armature = np.full(len(jids), float(config.servo.armature))
+    model.armature[v_index] = armature
+
+    q0 = pin.neutral(model)
+    q0[q_index] = config.half_sitting
+    # The half-sitting posture must itself respect the URDF limits.
+    lower, upper = model.lowerPositionLimit[q_index].copy(), model.upperPositionLimit[q_index].copy()
+    bad = [(n, a) for n, a, lo, hi in zip(config.joint_names, config.half_sitting, lower, upper) if not lo <= a <= hi]
+    if bad:
+        raise ConfigError(f"half_sitting angles outside the URDF limits: {bad}")
+
+    effort = model.effortLimit[v_index].copy()
+    kp = config.servo.kp_per_effort * effort
+    data = model.createData()
+    mass_diag = np.diag(pin.crba(model, data, q0))[v_index]  # crba includes the armature
+    kd = 2.0 * config.servo.damping_ratio * np.sqrt(kp * mass_diag)
+
+    return RobotModel(
+        config=config, files=files, pin=model, q_index=q_index, v_index=v_index, frame_ids=frame_ids,
+        lower=lower, upper=upper, velocity_limit=model.velocityLimit[v_index].copy(), effort=effort,
+        armature=armature, kp=kp, kd=kd, q_half_sitting=q0,
+    )
+
+
+def configuration(robot: RobotModel, base_pos: np.ndarray, base_quat_xyzw: np.ndarray, joints: np.ndarray) -> np.ndarray:
+    """Pinocchio configuration from a world-frame base pose and joint angles in the robot's order."""
+    q = robot.q_half_sitting.copy()
+    q[:3] = base_pos
+    q[3:7] = base_quat_xyzw / np.linalg.norm(base_quat_xyzw)
+    q[robot.q_index] = joints
+    return q

@@ -1,0 +1,29 @@
+"""ComTask: drive the centre of mass to a target position in the world frame."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from robot_ctrl.sot.task import Task
+
+
+class ComTask(Task):
+    """Error ``c* - c`` [m] (world frame), Jacobian ``∂c/∂v`` from Pinocchio. ``axes`` ⊂ {0, 1, 2}."""
+
+    def __init__(self, name: str = "com", axes=(0, 1, 2), **kw):
+        super().__init__(name, **kw)
+        self.axes = np.asarray(axes)
+        self.target = np.zeros(3)
+        self.target_velocity = np.zeros(3)
+
+    def set_target(self, position: np.ndarray, velocity: np.ndarray | None = None) -> None:
+        self.target = np.asarray(position, dtype=float)
+        self.target_velocity = np.zeros(3) if velocity is None else np.asarray(velocity, dtype=float)
+
+    def error_and_jacobian(self, model, data, q):
+        J = pin.jacobianCenterOfMass(model, data, q, False)  # also updates data.com[0]
+        return (self.target - data.com[0])[self.axes], J[self.axes]
+
+    def feedforward(self):
+        return self.target_velocity[self.axes]

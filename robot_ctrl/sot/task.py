@@ -1,0 +1,36 @@
+"""Task: the common shape of every IK task.
+
+A task asks for ``J v = gain * e + v_ff``: ``e`` its error (desired minus current), ``J`` the
+Jacobian of the task quantity w.r.t. the Pinocchio velocity ``v`` (nv), ``v_ff`` a feedforward
+task velocity. Tasks read kinematics from a ``pinocchio.Data`` on which the solver has already
+run ``computeJointJacobians`` and ``updateFramePlacements`` for the current configuration.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+
+import numpy as np
+import pinocchio as pin
+
+
+class Task(ABC):
+    def __init__(self, name: str, gain: float = 50.0, weight: float = 1.0):
+        if not gain > 0 or not weight > 0:
+            raise ValueError(f"task {name!r}: gain [1/s] and weight must be > 0 (got {gain}, {weight})")
+        self.name = name
+        self.gain = gain
+        self.weight = weight
+        self.active = True
+
+    @abstractmethod
+    def error_and_jacobian(self, model: pin.Model, data: pin.Data, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Return ``(e, J)``: error (m,) and Jacobian (m, nv)."""
+
+    def feedforward(self) -> np.ndarray | float:
+        return 0.0
+
+    def rows(self, model: pin.Model, data: pin.Data, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Weighted least-squares rows ``(A, b)`` with ``A v ≈ b``."""
+        e, J = self.error_and_jacobian(model, data, q)
+        return self.weight * J, self.weight * (self.gain * e + self.feedforward())

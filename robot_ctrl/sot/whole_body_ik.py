@@ -1,0 +1,70 @@
+"""WholeBodyIK: the humanoid stack of tasks used by every controller.
+
+Levels (strict priority, DEVELOPERS.md pipeline step 4)::
+
+    1. feet        left and right sole poses (6D each)
+    2. balance     centre of mass (3D) and waist orientation
+    3. upper body  hand positions (when active) and a joint posture over all joints (low weight)
+
+Joint limits bound every level. The IK integrates its own reference configuration ``q``
+(Pinocchio convention, base in the world frame): a position-controlled robot is commanded the
+joint part of that reference, the way HRP-2 and Talos are driven.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from robot_ctrl.robot.model import RobotModel
+from robot_ctrl.sot.com_task import ComTask
+from robot_ctrl.sot.frame_task import FrameTask
+from robot_ctrl.sot.joint_limits import JointLimits
+from robot_ctrl.sot.posture_task import PostureTask
+from robot_ctrl.sot.solver import HierarchicalQP
+
+SIDES = ("left", "right")
+
+
+class WholeBodyIK:
+    def __init__(self, robot: RobotModel, q0: np.ndarray, gain: float = 40.0, posture_weight: float = 0.03):
+        self.robot = robot
+        self.data = robot.pin.createData()
+        self.q = np.array(q0, dtype=float)
+        ids = robot.frame_ids
+        self.feet = {s: FrameTask(f"{s}_foot", ids[f"{s}_foot"], gain=gain) for s in SIDES}
+        self.com = ComTask(gain=gain)
+        self.waist = FrameTask("waist", ids["waist"], axes=("rx", "ry", "rz"), gain=gain)
+        self.hands = {s: FrameTask(f"{s}_hand", ids[f"{s}_hand"], axes=("x", "y", "z"), gain=gain) for s in SIDES}
+        self.posture = PostureTask("posture", robot.q_index, robot.v_index, robot.pin.nv, gain=gain,
+                                   weight=posture_weight)
+        self.solver = HierarchicalQP(
+            [[self.feet["left"], self.feet["right"]], [self.com, self.waist],
+             [self.hands["left"], self.hands["right"], self.posture]],
+            JointLimits.from_robot(robot))
+        self.hold_current()
+
+    def hold_current(self) -> None:
+        """Targets = the current configuration's values; hands inactive; posture = half-sitting."""
+        pin.framesForwardKinematics(self.robot.pin, self.data, self.q)
+        for s in SIDES:
+            self.feet[s].set_target(self.pose(f"{s}_foot"))
+            self.hands[s].set_target(self.pose(f"{s}_hand"))
+            self.hands[s].active = False
+        self.com.set_target(pin.centerOfMass(self.robot.pin, self.data, self.q))
+        self.waist.set_target(self.pose("waist"))
+        self.posture.set_target(self.robot.config.half_sitting)
+
+    def pose(self, role: str) -> pin.SE3:
+        """World-frame pose of an operational frame at the IK's current configuration."""
+        return self.data.oMf[self.robot.frame_ids[role]].copy()
+
+    def com_position(self) -> np.ndarray:
+        return pin.centerOfMass(self.robot.pin, self.data, self.q)
+
+    def step(self, dt: float) -> np.ndarray:
+        """Solve the stack, integrate ``q`` over ``dt`` and return the velocity ``v`` (nv)."""
+        v = self.solver.solve(self.robot.pin, self.data, self.q, dt)
+        self.q = pin.integrate(self.robot.pin, self.q, v * dt)
+        pin.framesForwardKinematics(self.robot.pin, self.data, self.q)
+        return v

@@ -1,0 +1,120 @@
+"""Stack-of-tasks IK: strict priorities, joint limits at every level, typed infeasibility."""
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from robot_ctrl.sot import (ComTask, FrameTask, HierarchicalQP, InfeasibleError, JointLimits, PostureTask,
+                            WholeBodyIK)
+
+DT = 0.005
+
+
+@pytest.fixture
+def tasks(talos):
+    ids = talos.frame_ids
+    feet = [FrameTask(f"{s}_foot", ids[f"{s}_foot"]) for s in ("left", "right")]
+    com = ComTask()
+    hand = FrameTask("right_hand", ids["right_hand"], axes=("x", "y", "z"))
+    posture = PostureTask("posture", talos.q_index, talos.v_index, talos.pin.nv, weight=0.1)
+    return feet, com, hand, posture
+
+
+def perturbed_half_sitting(talos, rng):
+    q = talos.q_half_sitting.copy()
+    q[talos.q_index] = np.clip(q[talos.q_index] + rng.uniform(-0.2, 0.2, talos.nj),
+                               talos.lower + 0.03, talos.upper - 0.03)
+    return q
+
+
+def set_conflicting_targets(talos, q, feet, com, hand, rng):
+    """Targets that the robot cannot meet all at once: feet moved apart, CoM and hand far away."""
+    data = talos.pin.createData()
+    pin.framesForwardKinematics(talos.pin, data, q)
+    for f in feet:
+        pose = data.oMf[f.frame_id].copy()
+        pose.translation += rng.uniform(-0.02, 0.02, 3)
+        f.set_target(pose)
+    com.set_target(pin.centerOfMass(talos.pin, data, q) + rng.uniform(-0.05, 0.05, 3))
+    hand.set_target(pin.SE3(np.eye(3), data.oMf[hand.frame_id].translation + rng.uniform(-0.5, 0.5, 3)))
+
+
+def test_lower_levels_never_change_higher_levels(talos, tasks):
+    feet, com, hand, posture = tasks
+    limits = JointLimits.from_robot(talos)
+    data = talos.pin.createData()
+    rng = np.random.default_rng(1)
+    improved = 0
+    for _ in range(10):
+        q = perturbed_half_sitting(talos, rng)
+        set_conflicting_targets(talos, q, feet, com, hand, rng)
+        posture.set_target(talos.q_half_sitting[talos.q_index] + rng.uniform(-0.5, 0.5, talos.nj))
+        stacks = [[feet], [feet, [com]], [feet, [com], [hand, posture]]]
+        solutions = [HierarchicalQP(levels, limits).solve(talos.pin, data, q, DT) for levels in stacks]
+        for k, level in enumerate(stacks[-1][:-1]):
+            A = np.vstack([t.rows(talos.pin, data, q)[0] for t in level])
+            reference = A @ solutions[k]
+            for v in solutions[k + 1:]:
+                np.testing.assert_allclose(A @ v, reference, atol=1e-6 * max(1.0, np.abs(reference).max()))
+        A_hand, b_hand = hand.rows(talos.pin, data, q)
+        improved += np.linalg.norm(A_hand @ solutions[2] - b_hand) < np.linalg.norm(A_hand @ solutions[1] - b_hand) - 1e-6
+    # The lowest level still does work in the freedom left to it (unless limits use all of it up).
+    assert improved >= 7
+
+
+def test_joint_limits_hold_at_every_step(talos):
+    """Drive the right hand far out of reach for 2 s: every joint hits a limit, none crosses it."""
+    q0 = talos.q_half_sitting.copy()
+    ik = WholeBodyIK(talos, q0)
+    hand = ik.hands["right"]
+    hand.active = True
+    hand.set_target(pin.SE3(np.eye(3), np.array([1.5, -1.5, 2.5])))
+    ik.com.set_target(ik.com_position() + [0.0, 0.0, 0.3])  # unreachable: forces leg limits
+    limits = ik.solver.limits
+    v_max = limits.v_max
+    at_limit = np.zeros(talos.nj, bool)
+    for _ in range(400):
+        q_before = ik.q.copy()
+        qj_before = q_before[talos.q_index]
+        v = ik.step(DT)
+        qj = ik.q[talos.q_index]
+        # Soft limits hold, except that a joint already inside the margin (the grippers start on their
+        # URDF limit) may stay there without going deeper; the hard URDF limits always hold.
+        assert np.all(qj >= np.minimum(limits.q_min, qj_before) - 1e-9)
+        assert np.all(qj <= np.maximum(limits.q_max, qj_before) + 1e-9)
+        assert np.all(qj >= limits.hard_min) and np.all(qj <= limits.hard_max)
+        assert np.all(np.abs(v[talos.v_index]) <= v_max + 1e-9)
+        assert np.all(np.isfinite(ik.q))
+        at_limit |= (qj <= limits.q_min + 1e-6) | (qj >= limits.q_max - 1e-6)
+        assert np.allclose(ik.q[talos.q_index], q_before[talos.q_index] + v[talos.v_index] * DT)
+    assert at_limit.sum() >= 3  # the test really pushed joints onto their limits
+
+
+def test_infeasible_problem_raises_a_typed_error(talos, tasks):
+    feet, com, hand, posture = tasks
+    solver = HierarchicalQP([feet, [com]], JointLimits.from_robot(talos))
+    q = talos.q_half_sitting.copy()
+    q[talos.q_index[3]] = -0.3  # left knee beyond its hard limit [0, 2.618]
+    with pytest.raises(InfeasibleError, match=r"leg_left_4_joint = -0.3000 not in \[0.0000, 2.6180\]") as info:
+        solver.solve(talos.pin, talos.pin.createData(), q, DT)
+    assert info.value.level == 0
+    q[talos.q_index[3]] = np.nan
+    with pytest.raises(InfeasibleError, match="NaN"):
+        solver.solve(talos.pin, talos.pin.createData(), q, DT)
+
+
+def test_whole_body_ik_reaches_the_demo_hand_target(talos):
+    """Kinematically, the balance demo's reach is feasible with feet fixed and the CoM held."""
+    ik = WholeBodyIK(talos, talos.q_half_sitting)
+    feet0 = {s: ik.pose(f"{s}_foot") for s in ("left", "right")}
+    com0 = ik.com_position()
+    # 0.4 m ahead, 0.2 m right, 0.8 m above the soles, from midway between the feet.
+    target = (feet0["left"].translation + feet0["right"].translation) / 2 + [0.4, -0.2, 0.8]
+    ik.hands["right"].active = True
+    ik.hands["right"].set_target(pin.SE3(np.eye(3), target))
+    for _ in range(600):
+        ik.step(DT)
+    assert np.linalg.norm(ik.pose("right_hand").translation - target) < 0.005
+    assert np.linalg.norm(ik.com_position() - com0) < 1e-6
+    for s in ("left", "right"):
+        assert np.linalg.norm(pin.log6(feet0[s].actInv(ik.pose(f"{s}_foot"))).vector) < 1e-6
