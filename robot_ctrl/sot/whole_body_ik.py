@@ -45,7 +45,8 @@ class WholeBodyIK:
         self.hold_current()
 
     def hold_current(self) -> None:
-        """Targets = the current configuration's values; hands inactive; posture = half-sitting."""
+        """Targets = the current configuration's values; hands inactive; posture = half-sitting
+        (within the soft joint limits)."""
         pin.framesForwardKinematics(self.robot.pin, self.data, self.q)
         for s in SIDES:
             self.feet[s].set_target(self.pose(f"{s}_foot"))
@@ -53,7 +54,10 @@ class WholeBodyIK:
             self.hands[s].active = False
         self.com.set_target(pin.centerOfMass(self.robot.pin, self.data, self.q))
         self.waist.set_target(self.pose("waist"))
-        self.posture.set_target(self.robot.config.half_sitting)
+        # Half-sitting puts the grippers on their URDF limit: aim inside the IK's soft limits instead,
+        # or the posture task would push them against a bound on every tick.
+        limits = self.solver.limits
+        self.posture.set_target(np.clip(self.robot.config.half_sitting, limits.q_min, limits.q_max))
 
     def pose(self, role: str) -> pin.SE3:
         """World-frame pose of an operational frame at the IK's current configuration."""
