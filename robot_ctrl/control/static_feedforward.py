@@ -11,6 +11,10 @@ origin) that balance gravity on the floating base, closest to the planned split:
 base rows), then the joint torques that hold the posture statically: ``τ = g_j − Σ J_i,jᵀ f_i``.
 A position-controlled robot sent ``τ`` as feedforward keeps its servos near zero position error
 under load, so its real posture matches the IK reference.
+
+With a CoM acceleration ``c̈`` (walking), the d'Alembert force of the linear inverted pendulum is
+added by replacing gravity ``g`` with ``g − c̈`` (every body accelerating with the CoM): the contact
+wrenches then carry the inertial load, and their centre of pressure is the cart-table ZMP.
 """
 
 from __future__ import annotations
@@ -20,18 +24,25 @@ import pinocchio as pin
 
 
 def static_torques(model: pin.Model, data: pin.Data, q: np.ndarray, sole_frames: list[int],
-                   shares: list[float]) -> tuple[np.ndarray, list[np.ndarray]]:
+                   shares: list[float], com_acceleration: np.ndarray | None = None) -> tuple[np.ndarray, list[np.ndarray]]:
     """Return ``(tau, wrenches)``: torques (nv, base rows ≈ 0) and one sole-frame wrench per contact.
 
-    ``shares`` must be positive; they are normalized to sum to one.
+    ``shares`` must be positive; they are normalized to sum to one. ``com_acceleration`` (3,) [m/s²],
+    world frame, adds the inertial load of the whole body accelerating with the CoM.
     """
     alpha = np.asarray(shares, dtype=float)
     alpha = alpha / alpha.sum()
-    g = pin.computeGeneralizedGravity(model, data, q).copy()
+    gravity = model.gravity.linear.copy()
+    if com_acceleration is not None:
+        model.gravity.linear = gravity - com_acceleration
+    try:
+        g = pin.computeGeneralizedGravity(model, data, q).copy()
+        weight = sum(inertia.mass for inertia in model.inertias) * np.linalg.norm(model.gravity.linear)
+    finally:
+        model.gravity.linear = gravity
     pin.computeJointJacobians(model, data, q)
     pin.updateFramePlacements(model, data)
     J = np.vstack([pin.getFrameJacobian(model, data, f, pin.LOCAL) for f in sole_frames])  # (6k, nv)
-    weight = sum(inertia.mass for inertia in model.inertias) * np.linalg.norm(model.gravity.linear)
     f_ref = np.concatenate([a * np.array([0.0, 0.0, weight, 0.0, 0.0, 0.0]) for a in alpha])
     Jb = J[:, :6].T  # (6, 6k)
     W = np.repeat(alpha, 6)

@@ -1,0 +1,93 @@
+"""WalkingController: WPG → stack-of-tasks IK → joint commands, one call per control tick.
+
+Each tick: every ``sample_time`` the walking pattern generator solves its MPC; the plan is
+sampled at the tick; the balance stabilizer corrects the CoM reference from the measured state;
+the IK (feet, then CoM + waist, then posture) integrates the reference configuration; the command
+carries the quasi-static torque feedforward for the planned contact split.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from robot_ctrl.control.static_feedforward import static_torques
+from robot_ctrl.control.stabilizer import DcmStabilizer
+from robot_ctrl.hw.types import JointCommand, JointState
+from robot_ctrl.robot.model import RobotModel, configuration
+from robot_ctrl.sot.whole_body_ik import SIDES, WholeBodyIK
+from robot_ctrl.wpg.footstep import Footstep
+from robot_ctrl.wpg.generator import WalkingPatternGenerator, WalkReference
+from robot_ctrl.wpg.params import WalkParams
+
+
+def yaw_of(rotation: np.ndarray) -> float:
+    return float(np.arctan2(rotation[1, 0], rotation[0, 0]))
+
+
+def sole_footstep(side: str, pose: pin.SE3) -> Footstep:
+    return Footstep(side, float(pose.translation[0]), float(pose.translation[1]), yaw_of(pose.rotation))
+
+
+class WalkingController:
+    def __init__(self, robot: RobotModel, state: JointState, params: WalkParams | None = None,
+                 control_dt: float = 0.005, stabilizer: DcmStabilizer | None = None):
+        self.robot = robot
+        self.dt = control_dt
+        q0 = configuration(robot, state.base_pos, state.base_quat_xyzw, state.q)
+        self.ik = WholeBodyIK(robot, q0)
+        feet = {s: self.ik.pose(f"{s}_foot") for s in SIDES}
+        self.sole_height = float(np.mean([feet[s].translation[2] for s in SIDES]))
+        com = self.ik.com_position()
+        self.com_z = float(com[2])
+        base = WalkParams() if params is None else params
+        fields = dict(base.__dict__)
+        fields.update(com_height=self.com_z - self.sole_height, foot_length=robot.config.foot.length,
+                      foot_width=robot.config.foot.width,
+                      step_width=float(np.linalg.norm(feet["left"].translation[:2] - feet["right"].translation[:2])))
+        self.params = WalkParams(**fields)
+        self.wpg = WalkingPatternGenerator(self.params, sole_footstep("left", feet["left"]),
+                                           sole_footstep("right", feet["right"]), com[:2])
+        self.ticks_per_sample = round(self.params.sample_time / control_dt)
+        if abs(self.ticks_per_sample * control_dt - self.params.sample_time) > 1e-9:
+            raise ValueError(f"sample_time {self.params.sample_time} s is not a multiple of the control period "
+                             f"{control_dt} s")
+        self.stabilizer = stabilizer if stabilizer is not None else DcmStabilizer(robot, self.params.com_height)
+        self._statics = robot.pin.createData()
+        self.k = 0
+        self.reference: WalkReference | None = None
+
+    def step(self, state: JointState) -> JointCommand:
+        if self.k % self.ticks_per_sample == 0:
+            self.wpg.update()
+        tau = (self.k % self.ticks_per_sample) * self.dt
+        self.k += 1
+        ref = self.wpg.sample(tau)
+        self.reference = ref
+        ik = self.ik
+        for side in SIDES:
+            pos = ref.foot_position[side] + [0.0, 0.0, self.sole_height]
+            lin, wz = ref.foot_velocity[side]
+            ik.feet[side].set_target(pin.SE3(pin.utils.rpyToMatrix(0.0, 0.0, ref.foot_yaw[side]), pos),
+                                     np.concatenate([lin, [0.0, 0.0, wz]]))
+        correction = self.stabilizer.correction(state, ref, self.dt)
+        ik.com.set_target(np.array([*(ref.com + correction), self.com_z]), np.array([*ref.com_velocity, 0.0]))
+        waist_yaw = np.arctan2(sum(np.sin(ref.foot_yaw[s]) for s in SIDES), sum(np.cos(ref.foot_yaw[s]) for s in SIDES))
+        ik.waist.set_target(pin.SE3(pin.utils.rpyToMatrix(0.0, 0.0, waist_yaw), np.zeros(3)))
+        v = ik.step(self.dt)
+        frames, shares = self.contact_split(ref)
+        tau_ff, _ = static_torques(self.robot.pin, self._statics, ik.q, frames, shares,
+                                   np.array([*ref.com_acceleration, 0.0]))
+        r = self.robot
+        return JointCommand(q=r.joints_from_q(ik.q), dq=v[r.v_index], kp=r.kp, kd=r.kd, tau_ff=tau_ff[r.v_index])
+
+    def contact_split(self, ref: WalkReference) -> tuple[list[int], list[float]]:
+        """Sole frames in contact and their weight shares, from where the planned ZMP lies between them."""
+        ids = self.robot.frame_ids
+        down = [s for s in SIDES if ref.in_contact[s]]
+        if len(down) == 1:
+            return [ids[f"{down[0]}_foot"]], [1.0]
+        left, right = ref.foot_position["left"][:2], ref.foot_position["right"][:2]
+        axis = left - right
+        share = float(np.clip(np.dot(ref.zmp - right, axis) / np.dot(axis, axis), 0.02, 0.98))
+        return [ids["left_foot"], ids["right_foot"]], [share, 1.0 - share]

@@ -1,0 +1,68 @@
+"""Footstep and FootRef: where a foot is, or will be as an affine function of the MPC's footstep
+variables ``F = [F1x, F1y, F2x, F2y]`` (world frame, m)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+SIDES = ("left", "right")
+
+
+def other(side: str) -> str:
+    return "right" if side == "left" else "left"
+
+
+def rotation(yaw: float) -> np.ndarray:
+    c, s = np.cos(yaw), np.sin(yaw)
+    return np.array([[c, -s], [s, c]])
+
+
+@dataclass(frozen=True)
+class Footstep:
+    """A sole frame on the floor: position (x, y) [m] and yaw [rad] in the world frame."""
+
+    side: str
+    x: float
+    y: float
+    yaw: float
+
+    @property
+    def xy(self) -> np.ndarray:
+        return np.array([self.x, self.y])
+
+
+@dataclass(frozen=True)
+class FootRef:
+    """A foot whose position is ``offset + S F`` (S: 2×4 selection of the footstep variables)."""
+
+    side: str
+    yaw: float
+    offset: np.ndarray  # (2,)
+    S: np.ndarray  # (2, 4)
+
+    @classmethod
+    def known(cls, step: Footstep) -> "FootRef":
+        return cls(step.side, step.yaw, step.xy, np.zeros((2, 4)))
+
+    @classmethod
+    def variable(cls, index: int, side: str, yaw: float) -> "FootRef":
+        S = np.zeros((2, 4))
+        S[0, 2 * index] = S[1, 2 * index + 1] = 1.0
+        return cls(side, yaw, np.zeros(2), S)
+
+    def beside(self, width: float) -> "FootRef":
+        """The other foot placed parallel to this one, ``width`` apart (feet side by side)."""
+        sign = -1.0 if self.side == "left" else 1.0
+        return FootRef(other(self.side), self.yaw, self.offset + rotation(self.yaw) @ [0.0, sign * width], self.S)
+
+    def same_anchor(self, other_ref: "FootRef") -> bool:
+        return np.array_equal(self.S, other_ref.S)
+
+    def position(self, F: np.ndarray) -> np.ndarray:
+        return self.offset + self.S @ F
+
+    def step(self, F: np.ndarray) -> Footstep:
+        x, y = self.position(F)
+        return Footstep(self.side, float(x), float(y), self.yaw)

@@ -1,0 +1,300 @@
+"""WalkingPatternGenerator: gait state machine around the walking MPC, sampled at the control rate.
+
+Gait phases: ``stand`` (double support, indefinitely) → ``transfer`` (double support that moves
+the ZMP onto the first stance foot) → ``single`` support (the other foot swings to the MPC's
+first footstep) ↔ ``double`` support after each touch-down. A zero velocity reference while
+walking stops in two steps: the next footstep is still optimized, the one after it is placed
+beside it (``step_width`` apart, parallel), then the robot stands in double support with the ZMP
+reference moving to the middle of the feet.
+
+Every ``sample_time`` :meth:`update` solves the MPC from the generator's own planned CoM state
+(the plan is open loop; balance feedback acts on the controller side) and advances the plan by
+one sample. :meth:`sample` interpolates it at any time inside the current sample.
+All positions are in the world frame; the floor is z = 0.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from robot_ctrl.wpg.footstep import Footstep, FootRef, other, rotation
+from robot_ctrl.wpg.lipm import com_at
+from robot_ctrl.wpg.mpc import MpcProblem, MpcSolution, Reach, SampleSupport, WalkingMPC
+from robot_ctrl.wpg.params import WalkParams
+from robot_ctrl.wpg.support_polygon import SupportPolygon
+from robot_ctrl.wpg.swing import SwingTrajectory
+
+
+@dataclass(frozen=True)
+class WalkReference:
+    """The walking plan at one control instant (world frame)."""
+
+    t: float
+    com: np.ndarray  # (2,) [m]
+    com_velocity: np.ndarray  # (2,) [m/s]
+    com_acceleration: np.ndarray  # (2,) [m/s²]
+    zmp: np.ndarray  # (2,) ZMP of the cart-table model [m]
+    foot_position: dict[str, np.ndarray]  # side -> sole position (3,) [m]
+    foot_yaw: dict[str, float]  # [rad]
+    foot_velocity: dict[str, np.ndarray]  # side -> (linear (3,), yaw rate)
+    in_contact: dict[str, bool]
+    phase: str
+
+
+@dataclass
+class Touchdown:
+    """A footstep when it lands: the plan's target; the controller adds where the foot really was."""
+
+    t: float
+    planned: Footstep
+    realized: Footstep | None = None
+
+
+@dataclass
+class _Segment:
+    duration: float  # [s] (inf for standing)
+    feet: list[FootRef]  # one (single support) or two (double support)
+    zmp_from: FootRef | None  # ZMP reference moves linearly from this …
+    zmp_to: FootRef | None = None  # … to this over the segment (None: stays at zmp_from)
+
+
+def _midpoint(a: FootRef, b: FootRef) -> FootRef:
+    return FootRef(a.side, a.yaw, (a.offset + b.offset) / 2, (a.S + b.S) / 2)
+
+
+def _blend(a: FootRef, b: FootRef, s: float) -> FootRef:
+    return FootRef(b.side, b.yaw, (1 - s) * a.offset + s * b.offset, (1 - s) * a.S + s * b.S)
+
+
+class WalkingPatternGenerator:
+    def __init__(self, params: WalkParams, left: Footstep, right: Footstep, com_xy: np.ndarray):
+        self.p = params
+        self.mpc = WalkingMPC(params)
+        self.t = 0.0  # start time of the current sample [s]
+        self.com_x = np.array([com_xy[0], 0.0, 0.0])
+        self.com_y = np.array([com_xy[1], 0.0, 0.0])
+        self.feet = {"left": left, "right": right}
+        self.heading = float(np.arctan2(np.sin(left.yaw) + np.sin(right.yaw), np.cos(left.yaw) + np.cos(right.yaw)))
+        self.phase = "stand"
+        self.phase_time = 0.0
+        self.stance = "right"
+        self.steps_to_stop = 0  # landings left before standing (0: not stopping)
+        self.velocity = np.zeros(3)  # (vx, vy, ωz) in the heading frame
+        self.swing: SwingTrajectory | None = None
+        self.settle_from: FootRef | None = None  # ZMP start of the last transfer to standing
+        self.solution: MpcSolution | None = None
+        self.touchdowns: list[Touchdown] = []
+        self.solve_times: list[float] = []
+        self._sample_state = (self.com_x.copy(), self.com_y.copy(), 0.0, 0.0)
+        self._sample_phase = (self.phase, 0.0, self.stance, None)
+
+    # Reference --------------------------------------------------------------------------------
+    def set_velocity(self, vx: float, vy: float, wz: float) -> None:
+        """Reference pelvis velocity in the heading frame: vx, vy [m/s], ωz [rad/s]."""
+        v = np.array([vx, vy, wz], dtype=float)
+        if not np.all(np.isfinite(v)):
+            raise ValueError(f"velocity reference must be finite, got {v}")
+        moving = bool(np.any(np.abs(v) > 1e-6))
+        if moving and self.phase == "stand":
+            self.stance = "left" if (vy < 0 or (vy == 0 and wz < 0)) else "right"
+            self.phase, self.phase_time = "transfer", 0.0
+        elif not moving and self.phase == "transfer":
+            self.phase, self.phase_time = "stand", 0.0
+        elif not moving and self.phase in ("single", "double") and self.steps_to_stop == 0:
+            self.steps_to_stop = 2
+        elif moving and self.steps_to_stop:
+            self.steps_to_stop = 0
+        self.velocity = v
+
+    @property
+    def standing(self) -> bool:
+        return self.phase == "stand"
+
+    # Horizon ----------------------------------------------------------------------------------
+    def _segments(self) -> tuple[list[_Segment], list[tuple[int, FootRef, FootRef | None]]]:
+        """Support segments from now over the horizon, and the landings (index, foot, fixed-to)."""
+        p = self.p
+        known = {side: FootRef.known(step) for side, step in self.feet.items()}
+        segments: list[_Segment] = []
+        landings: list[tuple[int, FootRef, FootRef | None]] = []
+        left, right = known["left"], known["right"]
+        remaining = {"transfer": p.start_transfer, "single": p.single_support, "double": p.double_support}
+        if self.phase == "stand":
+            zmp_from = self.settle_from or _midpoint(left, right)
+            segments.append(_Segment(max(p.start_transfer - self.phase_time, 0.0), [left, right], zmp_from,
+                                     _midpoint(left, right)))
+            segments.append(_Segment(np.inf, [left, right], _midpoint(left, right)))
+            return segments, landings
+        stance = known[self.stance]
+        left_in_phase = remaining[self.phase] - self.phase_time
+        if self.phase == "transfer":
+            mid = _midpoint(left, right)
+            start = _blend(mid, stance, self.phase_time / p.start_transfer)
+            segments.append(_Segment(left_in_phase, [left, right], start, stance))
+            segments.append(_Segment(p.single_support, [stance], stance))
+            t_land = left_in_phase + p.single_support
+        elif self.phase == "single":
+            segments.append(_Segment(left_in_phase, [stance], stance))
+            t_land = left_in_phase
+        else:  # double: the stance foot has just landed, the previous one is still down
+            prev = known[other(self.stance)]
+            segments.append(_Segment(left_in_phase, [prev, stance], prev, stance))
+            segments.append(_Segment(p.single_support, [stance], stance))
+            t_land = left_in_phase + p.single_support
+        horizon = p.sample_time * p.horizon
+        previous = stance
+        index = 0
+        while t_land < horizon and index < 2:
+            side = other(previous.side)
+            heading = self.heading + self.velocity[2] * t_land
+            yaw = previous.yaw + np.clip(_wrap(heading - previous.yaw), -p.max_yaw_step, p.max_yaw_step)
+            final = self.steps_to_stop and index == self.steps_to_stop - 1
+            fixed = previous.beside(p.step_width) if final else None
+            foot = fixed if final else FootRef.variable(index, side, float(yaw))
+            landings.append((index, FootRef.variable(index, side, foot.yaw), fixed))
+            if final:
+                segments.append(_Segment(np.inf, [previous, foot], previous, _midpoint(previous, foot)))
+                return segments, landings
+            segments.append(_Segment(p.double_support, [previous, foot], previous, foot))
+            segments.append(_Segment(p.single_support, [foot], foot))
+            previous = foot
+            t_land += p.step_period
+            index += 1
+        return segments, landings
+
+    def problem(self) -> MpcProblem:
+        p = self.p
+        segments, landings = self._segments()
+        self._landing_yaws = [foot.yaw for _, foot, _ in landings]
+        half = np.array([p.foot_length / 2 - p.zmp_margin, p.foot_width / 2 - p.zmp_margin])
+        supports = []
+        polygons: dict[tuple[int, bool], tuple] = {}  # (segment, second half) -> (H, h, anchor)
+        velocity = np.zeros((p.horizon, 2))
+        for j in range(p.horizon):
+            t = (j + 1) * p.sample_time
+            start = 0.0
+            for seg in segments:
+                if t <= start + seg.duration + 1e-9 or seg is segments[-1]:
+                    break
+                start += seg.duration
+            s = 1.0 if not np.isfinite(seg.duration) or seg.duration == 0 else (t - start) / seg.duration
+            s = min(max(s, 0.0), 1.0)
+            key = (id(seg), s >= 0.5)
+            if key not in polygons:
+                polygons[key] = _polygon(seg, s, half)
+            zmp_ref = seg.zmp_from if seg.zmp_to is None else _blend(seg.zmp_from, seg.zmp_to, s)
+            supports.append(SampleSupport(*polygons[key], zmp_ref))
+            heading = self.heading + self.velocity[2] * t
+            velocity[j] = rotation(heading) @ self.velocity[:2]
+        stance = FootRef.known(self.feet[self.stance])
+        reach, fixed = [], {}
+        nominal = np.zeros(4)
+        previous = stance
+        for index, foot, fix in landings:
+            reach.append(Reach(index, previous, self._reach_box(foot.side)))
+            if fix is not None:
+                fixed[index] = fix
+            sign = 1.0 if foot.side == "left" else -1.0
+            step = rotation(foot.yaw) @ (self.velocity[:2] * p.step_period + [0.0, sign * p.step_width])
+            nominal[2 * index : 2 * index + 2] = previous.position(nominal) + step
+            previous = foot
+        for index in range(len(landings), 2):  # footsteps beyond the horizon: kept at the stance foot
+            nominal[2 * index : 2 * index + 2] = stance.offset
+        return MpcProblem(self.com_x.copy(), self.com_y.copy(), velocity, supports, reach, fixed, nominal)
+
+    def _reach_box(self, side: str) -> tuple[float, float, float, float]:
+        w, (lo, hi) = self.p.step_width, self.p.reach_y
+        y = (w + lo, w + hi) if side == "left" else (-w - hi, -w - lo)
+        return (*self.p.reach_x, *y)
+
+    # Stepping ---------------------------------------------------------------------------------
+    def update(self) -> MpcSolution:
+        """Solve the MPC for the current sample and advance the plan by one sample."""
+        prob = self.problem()
+        t0 = time.perf_counter()
+        sol = self.mpc.solve(prob)
+        self.solve_times.append(time.perf_counter() - t0)
+        self.solution = sol
+        if self.phase == "single" and self.phase_time < self.p.single_support - self.p.swing_freeze - 1e-9:
+            self.swing.retarget(self.phase_time, Footstep(other(self.stance), *sol.footsteps[:2], self._landing_yaws[0]))
+        self._sample_state = (self.com_x.copy(), self.com_y.copy(), float(sol.jerk_x[0]), float(sol.jerk_y[0]))
+        T = self.p.sample_time
+        self._sample_phase = (self.phase, self.phase_time, self.stance, self.swing)
+        self.com_x = com_at(self.com_x, sol.jerk_x[0], T)
+        self.com_y = com_at(self.com_y, sol.jerk_y[0], T)
+        self.heading += self.velocity[2] * T
+        self._advance(T)
+        self.t += T
+        return sol
+
+    def _advance(self, T: float) -> None:
+        p = self.p
+        self.phase_time += T
+        if self.phase == "transfer" and self.phase_time >= p.start_transfer - 1e-9:
+            self._start_single()
+        elif self.phase == "single" and self.phase_time >= p.single_support - 1e-9:
+            landed = self.swing.landing
+            self.feet[landed.side] = landed
+            self.touchdowns.append(Touchdown(self.t + T, landed))
+            self.stance = landed.side
+            if self.steps_to_stop == 1:
+                self.phase, self.phase_time, self.steps_to_stop = "stand", 0.0, 0
+                self.settle_from = FootRef.known(self.feet[other(landed.side)])
+            else:
+                self.steps_to_stop = max(self.steps_to_stop - 1, 0)
+                self.phase, self.phase_time = "double", 0.0
+                if p.double_support <= 1e-9:
+                    self._start_single()
+        elif self.phase == "double" and self.phase_time >= p.double_support - 1e-9:
+            self._start_single()
+
+    def _start_single(self) -> None:
+        swing = other(self.stance)
+        self.phase, self.phase_time = "single", 0.0
+        self.swing = SwingTrajectory(self.feet[swing], self.p.single_support, self.p.swing_apex)
+
+    # Sampling ---------------------------------------------------------------------------------
+    def sample(self, tau: float) -> WalkReference:
+        """The plan ``tau`` seconds (0 ≤ tau ≤ sample_time) after the start of the last solved sample."""
+        cx, cy, jx, jy = self._sample_state
+        sx, sy = com_at(cx, jx, tau), com_at(cy, jy, tau)
+        h_g = self.p.com_height / 9.81
+        phase, phase_time, stance, swing = self._sample_phase
+        positions, yaws, velocities, contact = {}, {}, {}, {}
+        for side in ("left", "right"):
+            if phase == "single" and side != stance:
+                pos, yaw, vel, wz = swing.at(phase_time + tau)
+                positions[side], yaws[side], velocities[side], contact[side] = pos, yaw, (vel, wz), False
+            else:
+                step = self.feet[side]
+                positions[side] = np.array([step.x, step.y, 0.0])
+                yaws[side], velocities[side], contact[side] = step.yaw, (np.zeros(3), 0.0), True
+        return WalkReference(
+            t=self.t - self.p.sample_time + tau,
+            com=np.array([sx[0], sy[0]]), com_velocity=np.array([sx[1], sy[1]]),
+            com_acceleration=np.array([sx[2], sy[2]]),
+            zmp=np.array([sx[0] - h_g * sx[2], sy[0] - h_g * sy[2]]),
+            foot_position=positions, foot_yaw=yaws, foot_velocity=velocities, in_contact=contact, phase=phase,
+        )
+
+
+def _wrap(angle: float) -> float:
+    return float(np.arctan2(np.sin(angle), np.cos(angle)))
+
+
+def _polygon(seg: _Segment, s: float, half: np.ndarray) -> tuple[np.ndarray, np.ndarray, FootRef]:
+    """Support half-planes ``H (z − anchor) ≤ h`` of a segment at fraction ``s`` of it."""
+    if len(seg.feet) == 2 and not seg.feet[0].same_anchor(seg.feet[1]):
+        # Double support towards a foot that is still a decision variable: the hull would not be
+        # linear in it, so the ZMP is kept in the rear foot for the first half, in the front one after
+        # (a subset of the hull).
+        feet = [seg.feet[0] if s < 0.5 else seg.feet[1]]
+    else:
+        feet = seg.feet
+    anchor = feet[0]
+    soles = [(f.offset - anchor.offset, f.yaw) for f in feet]
+    H, h = SupportPolygon.of_soles(soles, 2 * half[0], 2 * half[1]).halfplanes
+    return H, h, anchor

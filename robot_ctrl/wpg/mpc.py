@@ -1,0 +1,193 @@
+"""WalkingMPC: the linear MPC of Herdt et al. (2010) with automatic footstep placement.
+
+Decision vector ``w = [Ux (N), Uy (N), F (4)]``: CoM jerks over the horizon and the positions of
+the next two footsteps ``F = [F1x, F1y, F2x, F2y]`` (world frame). Foot yaws are fixed before the
+QP from the integrated yaw-rate reference (bounded per step), which keeps the problem a QP; this
+is the decoupling Herdt et al. use, and the orientation part of Naveau et al. (2017) is reduced to
+it. With the LIP predictions ``Ẋ = Pvs x̂ + Pvu U``, ``Z = Pzs x̂ + Pzu U`` (see ``lipm``)::
+
+    min  α/2 ‖Ẋ − Ẋ_ref‖² + β/2 ‖Z − Z_ref(F)‖² + γ/2 ‖U‖² + ε/2 ‖F − F_nom‖²
+    s.t. H_j (Z_j − a_j(F)) ≤ h_j           ZMP in the support polygon at every sample j
+         R_pᵀ (F_i − p_i(F)) ∈ reach box     each footstep reachable from the previous foot
+         F_i = b_i(F) where a footstep is fixed (stopping beside the other foot, or beyond the horizon)
+
+Supports, references and anchors are affine in F (``FootRef``), so everything is linear.
+
+QP interface: CasADi ``conic``, plugin chosen by measurement (``benchmarks/bench_wpg.py --solvers``;
+36 variables, 140 dense constraint rows, a 0.25 m/s walk with turning): daqp and qpOASES solved in
+the same median time (≈ 0.3 ms for the QP itself), daqp with the lower p99 and without qpOASES's
+licence banner on stdout; osqp's answers violated the ZMP constraints by up to 1.6e-5 m (ADMM
+tolerance), and hpipm's interface rejected the dense constraint pattern. Hence daqp, a dual
+active-set solver for small dense QPs (``WalkParams.solver`` selects another).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from robot_ctrl.wpg.footstep import FootRef, rotation
+from robot_ctrl.wpg.lipm import horizon_matrices
+from robot_ctrl.wpg.params import WalkParams
+
+MAX_EDGES = 8  # a hull of two rectangles has at most 8 edges
+
+_PLUGIN_OPTIONS = {
+    "qpoases": {"printLevel": "none", "error_on_fail": False},
+    "hpipm": {"hpipm": {"iter_max": 100}, "error_on_fail": False},
+    "osqp": {"osqp": {"verbose": False, "eps_abs": 1e-6, "eps_rel": 1e-6, "max_iter": 4000}, "error_on_fail": False},
+    "daqp": {"error_on_fail": False},
+}
+
+
+class MpcInfeasible(RuntimeError):
+    """The walking QP has no solution for the given state and references."""
+
+
+@dataclass
+class SampleSupport:
+    """ZMP constraint and reference at one horizon sample."""
+
+    H: np.ndarray  # (k, 2) outward normals, world frame
+    h: np.ndarray  # (k,) so that H (z − anchor) ≤ h
+    anchor: FootRef
+    zmp_ref: FootRef  # reference ZMP (affine in F)
+
+
+@dataclass
+class Reach:
+    """Footstep ``index`` must lie in ``box`` = (x_min, x_max, y_min, y_max) of ``previous``'s frame."""
+
+    index: int
+    previous: FootRef
+    box: tuple[float, float, float, float]
+
+
+@dataclass
+class MpcProblem:
+    """Everything one MPC solve needs (built by the pattern generator)."""
+
+    com_x: np.ndarray  # (3,) [x, ẋ, ẍ]
+    com_y: np.ndarray
+    velocity_ref: np.ndarray  # (N, 2) world frame [m/s]
+    supports: list[SampleSupport]
+    reach: list[Reach]
+    fixed: dict[int, FootRef] = field(default_factory=dict)  # footstep index -> where it must be
+    footstep_nominal: np.ndarray = field(default_factory=lambda: np.zeros(4))
+
+
+@dataclass(frozen=True)
+class MpcSolution:
+    jerk_x: np.ndarray  # (N,)
+    jerk_y: np.ndarray
+    footsteps: np.ndarray  # (4,) F
+    zmp: np.ndarray  # (N, 2) predicted ZMP
+    com: np.ndarray  # (N, 2) predicted CoM position
+
+
+class WalkingMPC:
+    def __init__(self, params: WalkParams):
+        self.p = params
+        N = params.horizon
+        self.N = N
+        self.m = horizon_matrices(params.sample_time, N, params.com_height)
+        self.nw = 2 * N + 4
+        self.nc = MAX_EDGES * N + 8 + 4
+        opts = _PLUGIN_OPTIONS.get(params.solver, {})
+        self.solver = ca.conic("wpg", params.solver,
+                               {"h": ca.Sparsity.dense(self.nw, self.nw), "a": ca.Sparsity.dense(self.nc, self.nw)},
+                               opts)
+        # Constant parts of the cost: jerk-to-velocity and jerk-to-ZMP maps of both axes.
+        self._Mvu = np.zeros((2 * N, self.nw))
+        self._Mvu[:N, :N] = self._Mvu[N:, N : 2 * N] = self.m.Pvu
+        self._Mvu = self._Mvu[:, : 2 * N]
+        self._Mzu = np.zeros((2 * N, 2 * N))
+        self._Mzu[:N, :N] = self._Mzu[N:, N:] = self.m.Pzu
+        self._H_const = np.zeros((self.nw, self.nw))
+        self._H_const[: 2 * N, : 2 * N] = (params.w_velocity * self._Mvu.T @ self._Mvu
+                                           + params.w_zmp * self._Mzu.T @ self._Mzu + params.w_jerk * np.eye(2 * N))
+        self._H_const[2 * N :, 2 * N :] = params.w_footstep * np.eye(4)
+        self._x0 = np.zeros(self.nw)
+        self._lam_a0 = np.zeros(self.nc)
+        self._lam_x0 = np.zeros(self.nw)
+        self.last_stats: dict = {}
+
+    def solve(self, prob: MpcProblem) -> MpcSolution:
+        H, g, A, lba, uba = self.assemble(prob)
+        res = self.solver(h=H, g=g, a=A, lba=lba, uba=uba, x0=self._x0, lam_a0=self._lam_a0, lam_x0=self._lam_x0)
+        self.last_stats = self.solver.stats()
+        w = np.asarray(res["x"]).ravel()
+        if not self.last_stats.get("success", False) or not np.all(np.isfinite(w)):
+            raise MpcInfeasible(f"walking QP failed: {self.last_stats.get('return_status')}")
+        violation = np.max(np.maximum(A @ w - uba, lba - A @ w))
+        if violation > 1e-5:
+            raise MpcInfeasible(f"walking QP solution violates its constraints by {violation:.2e}")
+        N = self.N
+        # Warm start for the next sample: shift the jerks by one sample.
+        self._x0 = np.concatenate([w[1:N], w[N - 1 : N], w[N + 1 : 2 * N], w[2 * N - 1 : 2 * N], w[2 * N :]])
+        self._lam_a0 = np.asarray(res["lam_a"]).ravel()
+        self._lam_x0 = np.asarray(res["lam_x"]).ravel()
+        Ux, Uy, F = w[:N], w[N : 2 * N], w[2 * N :]
+        m = self.m
+        zmp = np.stack([m.Pzs @ prob.com_x + m.Pzu @ Ux, m.Pzs @ prob.com_y + m.Pzu @ Uy], axis=1)
+        com = np.stack([m.Pps @ prob.com_x + m.Ppu @ Ux, m.Pps @ prob.com_y + m.Ppu @ Uy], axis=1)
+        return MpcSolution(Ux, Uy, F, zmp, com)
+
+    def assemble(self, prob: MpcProblem):
+        """Dense QP ``min ½ wᵀHw + gᵀw  s.t. lba ≤ A w ≤ uba`` of one sample."""
+        p, m, N, nu = self.p, self.m, self.N, 2 * self.N
+        zs = np.stack([m.Pzs @ prob.com_x, m.Pzs @ prob.com_y], axis=1)  # (N, 2) ZMP drift without jerk
+        # ZMP residual Z − Z_ref(F) = [Mzu, −S_ref] w + bz and velocity residual Ẋ − Ẋ_ref = [Mvu, 0] w + bv,
+        # x rows then y rows.
+        S_ref = np.stack([s.zmp_ref.S for s in prob.supports])  # (N, 2, 4)
+        off_ref = np.stack([s.zmp_ref.offset for s in prob.supports])  # (N, 2)
+        S_ref = np.concatenate([S_ref[:, 0], S_ref[:, 1]])  # (2N, 4)
+        bz = (zs - off_ref).T.ravel()
+        bv = np.concatenate([m.Pvs @ prob.com_x, m.Pvs @ prob.com_y]) - prob.velocity_ref.T.ravel()
+        H = self._H_const.copy()
+        H[:nu, nu:] = -p.w_zmp * self._Mzu.T @ S_ref
+        H[nu:, :nu] = H[:nu, nu:].T
+        H[nu:, nu:] += p.w_zmp * S_ref.T @ S_ref
+        g = np.empty(self.nw)
+        g[:nu] = p.w_velocity * self._Mvu.T @ bv + p.w_zmp * self._Mzu.T @ bz
+        g[nu:] = -p.w_zmp * S_ref.T @ bz - p.w_footstep * prob.footstep_nominal
+
+        A = np.zeros((self.nc, self.nw))
+        lba = np.full(self.nc, -np.inf)
+        uba = np.full(self.nc, np.inf)
+        # ZMP rows, MAX_EDGES per sample (unused rows stay zero and unbounded): H_j (Z_j − a_j − S_j F) ≤ h_j.
+        Hs = np.zeros((N, MAX_EDGES, 2))
+        hs = np.full((N, MAX_EDGES), np.inf)
+        for j, sup in enumerate(prob.supports):
+            Hs[j, : len(sup.h)] = sup.H
+            hs[j, : len(sup.h)] = sup.h
+        S_anchor = np.stack([s.anchor.S for s in prob.supports])  # (N, 2, 4)
+        off_anchor = np.stack([s.anchor.offset for s in prob.supports])
+        rows = MAX_EDGES * N
+        A[:rows, :N] = (Hs[:, :, 0, None] * m.Pzu[:, None, :]).reshape(rows, N)
+        A[:rows, N:nu] = (Hs[:, :, 1, None] * m.Pzu[:, None, :]).reshape(rows, N)
+        A[:rows, nu:] = -(Hs @ S_anchor).reshape(rows, 4)
+        uba[:rows] = (hs + np.einsum("jkc,jc->jk", Hs, off_anchor - zs)).ravel()
+        row = rows
+        for r in prob.reach:
+            Rt = rotation(r.previous.yaw).T
+            A[row : row + 2, nu:] = Rt @ (_select(r.index) - r.previous.S)
+            rhs = Rt @ r.previous.offset
+            lba[row : row + 2] = [r.box[0] + rhs[0], r.box[2] + rhs[1]]
+            uba[row : row + 2] = [r.box[1] + rhs[0], r.box[3] + rhs[1]]
+            row += 2
+        row = rows + 8
+        for index, ref in prob.fixed.items():
+            A[row : row + 2, nu:] = _select(index) - ref.S
+            lba[row : row + 2] = uba[row : row + 2] = ref.offset
+            row += 2
+        return H, g, A, lba, uba
+
+
+def _select(index: int) -> np.ndarray:
+    """2×4 selection of footstep ``index`` in F."""
+    sel = np.zeros((2, 4))
+    sel[0, 2 * index] = sel[1, 2 * index + 1] = 1.0
+    return sel

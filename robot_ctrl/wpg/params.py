@@ -1,0 +1,56 @@
+"""WalkParams: timing, geometry and weights of the walking pattern generator (SI units)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+
+
+@dataclass(frozen=True)
+class WalkParams:
+    sample_time: float = 0.1  # [s] MPC sampling T
+    horizon: int = 16  # samples (1.6 s)
+    single_support: float = 0.7  # [s]
+    double_support: float = 0.1  # [s]
+    start_transfer: float = 0.8  # [s] double support that moves the ZMP onto the first stance foot
+    com_height: float = 0.88  # [m] constant CoM height of the cart-table model
+    foot_length: float = 0.21  # [m] sole rectangle
+    foot_width: float = 0.13
+    zmp_margin: float = 0.025  # [m] kept between the ZMP and the sole's edges
+    step_width: float = 0.17  # [m] nominal lateral distance between the sole frames
+    reach_x: tuple[float, float] = (-0.2, 0.3)  # [m] next foot in the stance foot's frame, forward
+    reach_y: tuple[float, float] = (-0.01, 0.15)  # [m] lateral, beyond step_width (outward +)
+    max_yaw_step: float = 0.3  # [rad] yaw change of one footstep
+    swing_apex: float = 0.05  # [m] swing-foot apex height
+    swing_freeze: float = 0.2  # [s] the landing target stops following the MPC this long before landing
+    # Cost weights (Herdt et al. 2010): CoM velocity tracking, ZMP centring, jerk, footstep regularization.
+    w_velocity: float = 1.0
+    w_zmp: float = 10.0
+    w_jerk: float = 1e-4
+    w_footstep: float = 1e-3
+    solver: str = "daqp"  # CasADi conic plugin (see robot_ctrl.wpg.mpc)
+
+    @property
+    def step_period(self) -> float:
+        return self.single_support + self.double_support
+
+    def __post_init__(self):
+        checks = {
+            "sample_time": (1e-3, 1.0), "horizon": (2, 100), "single_support": (0.05, 5.0),
+            "double_support": (0.0, 5.0), "start_transfer": (0.05, 5.0), "com_height": (0.1, 3.0),
+            "foot_length": (0.02, 1.0), "foot_width": (0.02, 1.0), "step_width": (0.02, 1.0),
+            "max_yaw_step": (0.0, 1.5), "swing_apex": (0.0, 0.5), "zmp_margin": (0.0, 0.2),
+        }
+        for f in fields(self):
+            if f.name in checks:
+                lo, hi = checks[f.name]
+                value = getattr(self, f.name)
+                if not (isinstance(value, (int, float)) and math.isfinite(value) and lo <= value <= hi):
+                    raise ValueError(f"WalkParams.{f.name} = {value!r} is outside the allowed range [{lo}, {hi}]")
+        for name in ("single_support", "double_support", "start_transfer"):
+            ratio = getattr(self, name) / self.sample_time
+            if abs(ratio - round(ratio)) > 1e-9:
+                raise ValueError(f"WalkParams.{name} = {getattr(self, name)} s must be a multiple of "
+                                 f"sample_time = {self.sample_time} s")
+        if 2 * self.zmp_margin >= min(self.foot_length, self.foot_width):
+            raise ValueError(f"WalkParams.zmp_margin = {self.zmp_margin} m leaves no room inside the sole")
