@@ -1,16 +1,76 @@
-"""DcmStabilizer: balance feedback for a position-controlled robot (placeholder gains: off)."""
+"""DcmStabilizer: balance feedback for a position-controlled humanoid.
+
+The robot cannot be sent a ZMP or a force, only joint positions, so the feedback acts on the CoM
+reference the IK tracks (after Kajita et al. 2010, "Biped walking stabilization based on linear
+inverted pendulum tracking", and DCM feedback of Englsberger et al. 2015). Per horizontal axis,
+world frame, with ω = sqrt(g / h)::
+
+    ξ = c + ċ / ω                                      DCM, measured (c, ċ from the estimator) and planned
+    p_d = p_ref + k_dcm (ξ_meas − ξ_ref)               desired ZMP, clamped into the support polygon
+    Δċ = k_zmp (p_meas − p_d) + k_com (c_ref − c_meas) − k_leak Δc
+    c_cmd = c_ref + Δc,   |Δc| ≤ max_offset
+
+If the measured ZMP lags behind the desired one, the CoM reference is moved back, which makes the
+body accelerate backwards relative to the feet and shifts the real ZMP forwards (and vice versa).
+``k_dcm = 1 + ω_dcm / ω`` gives the DCM error the convergence rate ω_dcm in the LIP model.
+The leak returns Δc to zero when errors vanish, so the plan is never drifted away from.
+"""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-from robot_ctrl.hw.types import JointState
-from robot_ctrl.robot.model import RobotModel
+from robot_ctrl.control.estimator import Estimate
+from robot_ctrl.wpg.lipm import GRAVITY
+
+
+@dataclass(frozen=True)
+class StabilizerGains:
+    dcm_rate: float = 2.0  # ω_dcm [1/s]
+    k_zmp: float = 3.0  # [1/s]
+    k_com: float = 2.0  # [1/s]
+    k_leak: float = 1.0  # [1/s]
+    max_offset: float = 0.04  # [m]
 
 
 class DcmStabilizer:
-    def __init__(self, robot: RobotModel, com_height: float, enabled: bool = False):
+    def __init__(self, com_height: float, gains: StabilizerGains = StabilizerGains(), enabled: bool = True):
+        self.omega = float(np.sqrt(GRAVITY / com_height))
+        self.gains = gains
         self.enabled = enabled
+        self.offset = np.zeros(2)
+        self.desired_zmp: np.ndarray | None = None
 
-    def correction(self, state: JointState, ref, dt: float) -> np.ndarray:
-        return np.zeros(2)
+    def correction(self, est: Estimate, com_ref: np.ndarray, com_vel_ref: np.ndarray, zmp_ref: np.ndarray,
+                   dt: float) -> np.ndarray:
+        """CoM reference offset Δc (2,) [m] for this tick."""
+        if not self.enabled:
+            return self.offset
+        g = self.gains
+        xi_ref = com_ref + com_vel_ref / self.omega
+        p_d = zmp_ref + (1.0 + g.dcm_rate / self.omega) * (est.dcm(self.omega) - xi_ref)
+        if est.support is not None:
+            p_d = _clamp_into(est.support, p_d)
+        self.desired_zmp = p_d
+        rate = g.k_com * (com_ref - est.com[:2]) - g.k_leak * self.offset
+        if est.zmp is not None:
+            rate += g.k_zmp * (est.zmp - p_d)
+        self.offset = np.clip(self.offset + rate * dt, -g.max_offset, g.max_offset)
+        return self.offset
+
+
+def _clamp_into(polygon, p: np.ndarray) -> np.ndarray:
+    """``p`` if inside ``polygon``, else the closest point of its boundary."""
+    if polygon.contains(p):
+        return p
+    v = polygon.vertices
+    best, best_d = p, np.inf
+    for a, b in zip(v, np.roll(v, -1, axis=0)):
+        t = np.clip(np.dot(p - a, b - a) / max(np.dot(b - a, b - a), 1e-12), 0.0, 1.0)
+        c = a + t * (b - a)
+        d = np.linalg.norm(p - c)
+        if d < best_d:
+            best, best_d = c, d
+    return best

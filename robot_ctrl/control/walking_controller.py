@@ -3,7 +3,8 @@
 Each tick: every ``sample_time`` the walking pattern generator solves its MPC; the plan is
 sampled at the tick; the balance stabilizer corrects the CoM reference from the measured state;
 the IK (feet, then CoM + waist, then posture) integrates the reference configuration; the command
-carries the quasi-static torque feedforward for the planned contact split.
+carries the quasi-static torque feedforward (with the LIP's d'Alembert force) for the planned contact
+split.
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ import numpy as np
 import pinocchio as pin
 
 from robot_ctrl.control.static_feedforward import static_torques
+from robot_ctrl.control.estimator import StateEstimator
 from robot_ctrl.control.stabilizer import DcmStabilizer
 from robot_ctrl.hw.types import JointCommand, JointState
 from robot_ctrl.robot.model import RobotModel, configuration
@@ -52,7 +54,9 @@ class WalkingController:
         if abs(self.ticks_per_sample * control_dt - self.params.sample_time) > 1e-9:
             raise ValueError(f"sample_time {self.params.sample_time} s is not a multiple of the control period "
                              f"{control_dt} s")
-        self.stabilizer = stabilizer if stabilizer is not None else DcmStabilizer(robot, self.params.com_height)
+        self.stabilizer = stabilizer if stabilizer is not None else DcmStabilizer(self.params.com_height)
+        self.estimator = StateEstimator(robot)
+        self.estimate = None
         self._statics = robot.pin.createData()
         self.k = 0
         self.reference: WalkReference | None = None
@@ -70,7 +74,8 @@ class WalkingController:
             lin, wz = ref.foot_velocity[side]
             ik.feet[side].set_target(pin.SE3(pin.utils.rpyToMatrix(0.0, 0.0, ref.foot_yaw[side]), pos),
                                      np.concatenate([lin, [0.0, 0.0, wz]]))
-        correction = self.stabilizer.correction(state, ref, self.dt)
+        self.estimate = self.estimator.estimate(state)
+        correction = self.stabilizer.correction(self.estimate, ref.com, ref.com_velocity, ref.zmp, self.dt)
         ik.com.set_target(np.array([*(ref.com + correction), self.com_z]), np.array([*ref.com_velocity, 0.0]))
         waist_yaw = np.arctan2(sum(np.sin(ref.foot_yaw[s]) for s in SIDES), sum(np.cos(ref.foot_yaw[s]) for s in SIDES))
         ik.waist.set_target(pin.SE3(pin.utils.rpyToMatrix(0.0, 0.0, waist_yaw), np.zeros(3)))

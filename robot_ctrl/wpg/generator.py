@@ -5,7 +5,9 @@ the ZMP onto the first stance foot) → ``single`` support (the other foot swing
 first footstep) ↔ ``double`` support after each touch-down. A zero velocity reference while
 walking stops in two steps: the next footstep is still optimized, the one after it is placed
 beside it (``step_width`` apart, parallel), then the robot stands in double support with the ZMP
-reference moving to the middle of the feet.
+reference moving to the middle of the feet. :meth:`stop_at` instead places those two last
+footsteps at given positions, taking as many steps as the reach region requires (stopping at a
+goal pose).
 
 Every ``sample_time`` :meth:`update` solves the MPC from the generator's own planned CoM state
 (the plan is open loop; balance feedback acts on the controller side) and advances the plan by
@@ -22,7 +24,7 @@ import numpy as np
 
 from robot_ctrl.wpg.footstep import Footstep, FootRef, other, rotation
 from robot_ctrl.wpg.lipm import com_at
-from robot_ctrl.wpg.mpc import MpcProblem, MpcSolution, Reach, SampleSupport, WalkingMPC
+from robot_ctrl.wpg.mpc import MpcInfeasible, MpcProblem, MpcSolution, Reach, SampleSupport, WalkingMPC
 from robot_ctrl.wpg.params import WalkParams
 from robot_ctrl.wpg.support_polygon import SupportPolygon
 from robot_ctrl.wpg.swing import SwingTrajectory
@@ -82,6 +84,7 @@ class WalkingPatternGenerator:
         self.phase_time = 0.0
         self.stance = "right"
         self.steps_to_stop = 0  # landings left before standing (0: not stopping)
+        self.stop_feet: dict[str, Footstep] | None = None  # where the feet must end when stopping at a pose
         self.velocity = np.zeros(3)  # (vx, vy, ωz) in the heading frame
         self.swing: SwingTrajectory | None = None
         self.settle_from: FootRef | None = None  # ZMP start of the last transfer to standing
@@ -107,7 +110,16 @@ class WalkingPatternGenerator:
             self.steps_to_stop = 2
         elif moving and self.steps_to_stop:
             self.steps_to_stop = 0
+            self.stop_feet = None
         self.velocity = v
+
+    def stop_at(self, left: Footstep, right: Footstep) -> None:
+        """Stop with the feet at these footsteps: each next landing goes to its foot's stop footstep,
+        clamped into the reach region of the previous foot, until both feet are there (if the QP is
+        infeasible with them, the generator falls back to a plain stop)."""
+        self.set_velocity(0.0, 0.0, 0.0)
+        if self.steps_to_stop:
+            self.stop_feet = {"left": left, "right": right}
 
     @property
     def standing(self) -> bool:
@@ -151,9 +163,13 @@ class WalkingPatternGenerator:
             side = other(previous.side)
             heading = self.heading + self.velocity[2] * t_land
             yaw = previous.yaw + np.clip(_wrap(heading - previous.yaw), -p.max_yaw_step, p.max_yaw_step)
-            final = self.steps_to_stop and index == self.steps_to_stop - 1
-            fixed = previous.beside(p.step_width) if final else None
-            foot = fixed if final else FootRef.variable(index, side, float(yaw))
+            if self.stop_feet is not None:
+                fixed = FootRef.known(self._toward_goal(previous, side))
+                final = self._at_goal(fixed) and self._at_goal(previous)
+            else:
+                final = self.steps_to_stop and index == self.steps_to_stop - 1
+                fixed = previous.beside(p.step_width) if final else None
+            foot = fixed if fixed is not None else FootRef.variable(index, side, float(yaw))
             landings.append((index, FootRef.variable(index, side, foot.yaw), fixed))
             if final:
                 segments.append(_Segment(np.inf, [previous, foot], previous, _midpoint(previous, foot)))
@@ -164,6 +180,21 @@ class WalkingPatternGenerator:
             t_land += p.step_period
             index += 1
         return segments, landings
+
+    def _toward_goal(self, previous: FootRef, side: str) -> Footstep:
+        """The stop footstep of ``side``, clamped into the reach region (and yaw step) of ``previous``."""
+        goal = self.stop_feet[side]
+        yaw = previous.yaw + np.clip(_wrap(goal.yaw - previous.yaw), -self.p.max_yaw_step, self.p.max_yaw_step)
+        local = rotation(previous.yaw).T @ (goal.xy - previous.offset)
+        box = self._reach_box(side)
+        local = np.clip(local, [box[0], box[2]], [box[1], box[3]])
+        x, y = previous.offset + rotation(previous.yaw) @ local
+        return Footstep(side, float(x), float(y), float(yaw))
+
+    def _at_goal(self, foot: FootRef) -> bool:
+        goal = self.stop_feet[foot.side]
+        return (not foot.S.any() and np.allclose(foot.offset, goal.xy, atol=1e-6)
+                and abs(_wrap(foot.yaw - goal.yaw)) < 1e-6)
 
     def problem(self) -> MpcProblem:
         p = self.p
@@ -215,7 +246,14 @@ class WalkingPatternGenerator:
         """Solve the MPC for the current sample and advance the plan by one sample."""
         prob = self.problem()
         t0 = time.perf_counter()
-        sol = self.mpc.solve(prob)
+        try:
+            sol = self.mpc.solve(prob)
+        except MpcInfeasible:
+            if self.stop_feet is None:
+                raise
+            self.stop_feet = None  # the requested stop footsteps are not reachable: stop where possible
+            prob = self.problem()
+            sol = self.mpc.solve(prob)
         self.solve_times.append(time.perf_counter() - t0)
         self.solution = sol
         if self.phase == "single" and self.phase_time < self.p.single_support - self.p.swing_freeze - 1e-9:
@@ -240,8 +278,13 @@ class WalkingPatternGenerator:
             self.feet[landed.side] = landed
             self.touchdowns.append(Touchdown(self.t + T, landed))
             self.stance = landed.side
-            if self.steps_to_stop == 1:
+            if self.stop_feet is not None:
+                done = all(self._at_goal(FootRef.known(f)) for f in self.feet.values())
+            else:
+                done = self.steps_to_stop == 1
+            if done:
                 self.phase, self.phase_time, self.steps_to_stop = "stand", 0.0, 0
+                self.stop_feet = None
                 self.settle_from = FootRef.known(self.feet[other(landed.side)])
             else:
                 self.steps_to_stop = max(self.steps_to_stop - 1, 0)

@@ -19,7 +19,7 @@ class WalkParams:
     zmp_margin: float = 0.025  # [m] kept between the ZMP and the sole's edges
     step_width: float = 0.17  # [m] nominal lateral distance between the sole frames
     reach_x: tuple[float, float] = (-0.2, 0.3)  # [m] next foot in the stance foot's frame, forward
-    reach_y: tuple[float, float] = (-0.01, 0.15)  # [m] lateral, beyond step_width (outward +)
+    reach_y: tuple[float, float] = (0.0, 0.15)  # [m] lateral, beyond step_width (outward +); narrower steps let the knees touch when turning
     max_yaw_step: float = 0.3  # [rad] yaw change of one footstep
     swing_apex: float = 0.05  # [m] swing-foot apex height
     swing_freeze: float = 0.2  # [s] the landing target stops following the MPC this long before landing
