@@ -228,8 +228,13 @@ class WalkingPatternGenerator:
             reach.append(Reach(index, previous, self._reach_box(foot.side)))
             if fix is not None:
                 fixed[index] = fix
+            # Footstep reference: forward, each step advances vx T_step; sideways the feet cannot cross
+            # inside step_width, so the leading foot takes the whole 2 vy T_step and the trailing one
+            # comes back to step_width.
             sign = 1.0 if foot.side == "left" else -1.0
-            step = rotation(foot.yaw) @ (self.velocity[:2] * p.step_period + [0.0, sign * p.step_width])
+            vx, vy = self.velocity[:2]
+            lateral = sign * p.step_width + (2.0 * vy * p.step_period if sign * vy > 0 else 0.0)
+            step = rotation(foot.yaw) @ np.array([vx * p.step_period, lateral])
             nominal[2 * index : 2 * index + 2] = previous.position(nominal) + step
             previous = foot
         for index in range(len(landings), 2):  # footsteps beyond the horizon: kept at the stance foot

@@ -27,7 +27,7 @@ class WalkParams:
     w_velocity: float = 1.0
     w_zmp: float = 10.0
     w_jerk: float = 1e-4
-    w_footstep: float = 1e-3
+    w_footstep: float = 30.0
     solver: str = "daqp"  # CasADi conic plugin (see robot_ctrl.wpg.mpc)
 
     @property

@@ -1,0 +1,45 @@
+"""Walking in MuJoCo with the full controller (MPC, stabilizer, IK, feedforward) and the path follower."""
+
+import json
+import re
+
+import numpy as np
+import pytest
+
+from robot_ctrl.cli import main
+from robot_ctrl.control.path_follower import PathFollower, WalkGoal
+
+
+def test_one_metre_walk_does_not_fall(tmp_path):
+    assert main(["walk", "--robot", "talos", "--distance", "1.0", "--out", str(tmp_path)]) == 0
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert report["fell"] is False
+    assert report["final_position_error_m"] < 0.05 and report["final_yaw_error_deg"] < 5.0
+    assert report["ended_in_double_support"] and report["stood_s"] >= 2.0
+    assert report["zmp_in_support_ratio"] >= 0.98
+    assert report["peak_torque_ratio"] <= 1.0
+    steps = report["footsteps"]
+    assert len(steps) >= 5
+    for step in steps:  # realized footsteps land within 2 cm of the plan
+        assert np.linalg.norm(np.subtract(step["planned"][:2], step["realized"][:2])) < 0.02
+    assert report["wpg_solve_ms_median"] > 0
+
+
+def test_arc_geometry():
+    goal = WalkGoal(distance=2.0, turn=np.pi / 2)
+    np.testing.assert_allclose(goal.pose_at(2.0), [4 / np.pi, 4 / np.pi, np.pi / 2])
+    np.testing.assert_allclose(WalkGoal(lateral=-0.5).pose_at(0.5), [0.0, -0.5, 0.0])
+    follower = PathFollower(goal, np.zeros(3))
+    s_end, v_end = follower.progress(follower.end_time)
+    assert s_end == pytest.approx(2.0) and v_end == pytest.approx(0.0, abs=1e-9)
+    assert follower.progress(follower.end_time / 2)[1] == pytest.approx(0.25)
+
+
+@pytest.mark.parametrize("args,message", [
+    (["--distance", "1", "--lateral", "0.5"], "either lateral, or distance"),
+    (["--distance", "1", "--speed", "2"], r"speed = 2.0 is outside the allowed range \[0.02, 0.5\]"),
+    (["--turn-deg", "90"], "turn needs a distance"),
+])
+def test_walk_rejects_bad_arguments(args, message, capsys):
+    assert main(["walk", *args]) == 2
+    assert re.search(message, capsys.readouterr().err)

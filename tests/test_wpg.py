@@ -1,0 +1,130 @@
+"""Walking pattern generator: MPC constraints, velocity tracking, footstep reachability, start/stop."""
+
+import numpy as np
+import pytest
+
+from robot_ctrl.wpg.footstep import Footstep, rotation
+from robot_ctrl.wpg.generator import WalkingPatternGenerator
+from robot_ctrl.wpg.lipm import com_at, horizon_matrices
+from robot_ctrl.wpg.params import WalkParams
+
+PARAMS = WalkParams(com_height=0.88, step_width=0.17)
+
+
+def standing_generator(params=PARAMS):
+    return WalkingPatternGenerator(params, Footstep("left", 0.0, 0.085, 0.0), Footstep("right", 0.0, -0.085, 0.0),
+                                   np.zeros(2))
+
+
+def test_horizon_matrices_match_integration():
+    m = horizon_matrices(0.1, 16, 0.88)
+    rng = np.random.default_rng(0)
+    state, jerks = rng.normal(size=3), rng.normal(size=16)
+    s = state.copy()
+    for j, u in enumerate(jerks):
+        s = com_at(s, u, 0.1)
+        assert m.Pps[j] @ state + m.Ppu[j] @ jerks == pytest.approx(s[0])
+        assert m.Pvs[j] @ state + m.Pvu[j] @ jerks == pytest.approx(s[1])
+        assert m.Pzs[j] @ state + m.Pzu[j] @ jerks == pytest.approx(s[0] - 0.88 / 9.81 * s[2])
+
+
+def in_reach(params, previous: Footstep, step: Footstep, tol=1e-6) -> bool:
+    local = rotation(previous.yaw).T @ (step.xy - previous.xy)
+    w, (lo, hi) = params.step_width, params.reach_y
+    y_lo, y_hi = (w + lo, w + hi) if step.side == "left" else (-w - hi, -w - lo)
+    return (params.reach_x[0] - tol <= local[0] <= params.reach_x[1] + tol) and (y_lo - tol <= local[1] <= y_hi + tol)
+
+
+def test_constraints_hold_over_random_references():
+    """Random velocity references changing every 0.8 s: every predicted ZMP lies in its support
+    polygon (with the margin), every footstep in the reach region of the previous foot."""
+    rng = np.random.default_rng(3)
+    gen = standing_generator()
+    for k in range(120):
+        if k % 8 == 0:
+            gen.set_velocity(rng.uniform(-0.1, 0.3), rng.uniform(-0.1, 0.1), rng.uniform(-0.3, 0.3))
+        prob = gen.problem()
+        gen.update()
+        sol = gen.solution
+        for j, sup in enumerate(prob.supports):
+            anchor = sup.anchor.position(sol.footsteps)
+            assert np.all(sup.H @ (sol.zmp[j] - anchor) <= sup.h + 1e-6)
+        for reach in prob.reach:
+            step = Footstep("left" if reach.box[2] > 0 else "right", *sol.footsteps[2 * reach.index: 2 * reach.index + 2],
+                            0.0)
+            local = rotation(reach.previous.yaw).T @ (step.xy - reach.previous.position(sol.footsteps))
+            assert reach.box[0] - 1e-6 <= local[0] <= reach.box[1] + 1e-6
+            assert reach.box[2] - 1e-6 <= local[1] <= reach.box[3] + 1e-6
+    landed = gen.touchdowns
+    assert len(landed) >= 10
+    feet = {"left": Footstep("left", 0.0, 0.085, 0.0), "right": Footstep("right", 0.0, -0.085, 0.0)}
+    for td in landed:  # each landing is reachable from the foot that stood while it swung
+        previous = feet["right" if td.planned.side == "left" else "left"]
+        assert in_reach(PARAMS, previous, td.planned)
+        assert abs(np.arctan2(np.sin(td.planned.yaw - previous.yaw), np.cos(td.planned.yaw - previous.yaw))) \
+            <= PARAMS.max_yaw_step + 1e-9
+        feet[td.planned.side] = td.planned
+
+
+@pytest.mark.parametrize("velocity", [(0.25, 0.0, 0.0), (0.0, 0.05, 0.0), (0.1, -0.04, 0.0), (0.2, 0.0, 0.2)])
+def test_com_velocity_tracks_the_reference_in_steady_state(velocity):
+    """Mean CoM velocity over whole gait cycles matches the reference (heading frame) to 0.02 m/s.
+    (Sideways speed is bounded by the reach region: at most 0.15 m per 1.6 s cycle.)"""
+    gen = standing_generator()
+    gen.set_velocity(*velocity)
+    samples = []
+    for k in range(120):
+        gen.update()
+        if k >= 40:  # after start-up
+            local = rotation(gen.heading).T @ np.array([gen.com_x[1], gen.com_y[1]])
+            samples.append(local)
+    mean = np.mean(samples[: len(samples) // 16 * 16], axis=0)  # whole 1.6 s cycles
+    np.testing.assert_allclose(mean, velocity[:2], atol=0.02)
+    if velocity[2]:
+        assert gen.heading == pytest.approx(velocity[2] * 120 * PARAMS.sample_time, rel=0.01)
+
+
+def test_starts_from_standing_and_stops_into_double_support():
+    gen = standing_generator()
+    for _ in range(5):
+        gen.update()
+    assert gen.standing and not gen.touchdowns
+    gen.set_velocity(0.2, 0.0, 0.0)
+    for _ in range(40):
+        gen.update()
+    assert gen.phase in ("single", "double") and gen.touchdowns
+    gen.set_velocity(0.0, 0.0, 0.0)
+    for _ in range(40):
+        gen.update()
+    assert gen.standing
+    left, right = gen.feet["left"], gen.feet["right"]
+    assert abs(left.x - right.x) < 1e-9 and np.linalg.norm(left.xy - right.xy) == pytest.approx(0.17)  # side by side
+    com = np.array([gen.com_x[0], gen.com_y[0]])
+    np.testing.assert_allclose(com, (left.xy + right.xy) / 2, atol=0.01)  # CoM settles between the feet
+    assert abs(gen.com_x[1]) < 0.01 and abs(gen.com_y[1]) < 0.01
+
+
+def test_stop_at_puts_the_feet_on_the_goal():
+    gen = standing_generator()
+    gen.set_velocity(0.0, 0.15, 0.0)
+    for _ in range(30):
+        gen.update()
+    goal = {"left": Footstep("left", 0.0, 0.485, 0.0), "right": Footstep("right", 0.0, 0.315, 0.0)}
+    gen.stop_at(goal["left"], goal["right"])
+    for _ in range(60):
+        gen.update()
+    assert gen.standing
+    for side in ("left", "right"):
+        np.testing.assert_allclose(gen.feet[side].xy, goal[side].xy, atol=1e-9)
+
+
+@pytest.mark.parametrize("field,value", [("horizon", 1), ("single_support", 0.75), ("zmp_margin", 0.1),
+                                         ("com_height", float("nan"))])
+def test_bad_parameters_name_the_field(field, value):
+    with pytest.raises(ValueError, match=f"WalkParams.{field}"):
+        WalkParams(**{field: value})
+
+
+def test_velocity_reference_must_be_finite():
+    with pytest.raises(ValueError, match="finite"):
+        standing_generator().set_velocity(np.nan, 0.0, 0.0)
