@@ -3,10 +3,18 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
 from robot_ctrl.robot.config import ConfigError, available_robots
+
+
+def _check_viewer(args: argparse.Namespace) -> None:
+    if args.viewer and sys.platform.startswith("linux") and not (os.environ.get("DISPLAY") or
+                                                                 os.environ.get("WAYLAND_DISPLAY")):
+        raise ConfigError("--viewer needs a display, and neither DISPLAY nor WAYLAND_DISPLAY is set "
+                          "(run without --viewer, or under a desktop or xvfb-run)")
 
 
 def _balance(args: argparse.Namespace) -> int:
@@ -14,6 +22,7 @@ def _balance(args: argparse.Namespace) -> int:
     from robot_ctrl.robot.model import load_robot
     from robot_ctrl.scenarios.balance import run_balance
 
+    _check_viewer(args)
     robot = load_robot(args.robot)
     report = run_balance(robot, MujocoBackend(robot, viewer=args.viewer), out_dir=args.out)
     return 1 if report["fell"] else 0
@@ -32,6 +41,7 @@ def _walk(args: argparse.Namespace) -> int:
                         speed=args.speed)
     except ValueError as exc:
         raise ConfigError(f"walk: {exc}".replace("turn = ", "--turn-deg (in rad) = ")) from exc
+    _check_viewer(args)
     robot = load_robot(args.robot)
     report = run_walk(robot, MujocoBackend(robot, viewer=args.viewer), goal, stabilize=not args.no_stabilizer,
                       out_dir=args.out)

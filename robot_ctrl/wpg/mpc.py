@@ -96,9 +96,8 @@ class WalkingMPC:
         self.nw = 2 * N + 4
         self.nc = MAX_EDGES * N + 8 + 4
         opts = _PLUGIN_OPTIONS.get(params.solver, {})
-        self.solver = ca.conic("wpg", params.solver,
-                               {"h": ca.Sparsity.dense(self.nw, self.nw), "a": ca.Sparsity.dense(self.nc, self.nw)},
-                               opts)
+        self._sp_h, self._sp_a = ca.Sparsity.dense(self.nw, self.nw), ca.Sparsity.dense(self.nc, self.nw)
+        self.solver = ca.conic("wpg", params.solver, {"h": self._sp_h, "a": self._sp_a}, opts)
         # Constant parts of the cost: jerk-to-velocity and jerk-to-ZMP maps of both axes.
         self._Mvu = np.zeros((2 * N, self.nw))
         self._Mvu[:N, :N] = self._Mvu[N:, N : 2 * N] = self.m.Pvu
@@ -116,7 +115,10 @@ class WalkingMPC:
 
     def solve(self, prob: MpcProblem) -> MpcSolution:
         H, g, A, lba, uba = self.assemble(prob)
-        res = self.solver(h=H, g=g, a=A, lba=lba, uba=uba, x0=self._x0, lam_a0=self._lam_a0, lam_x0=self._lam_x0)
+        # CasADi converts Python lists about twice as fast as numpy arrays (≈ 0.5 ms per call here).
+        res = self.solver(h=ca.DM(self._sp_h, H.ravel(order="F").tolist()), g=g.tolist(),
+                          a=ca.DM(self._sp_a, A.ravel(order="F").tolist()), lba=lba.tolist(), uba=uba.tolist(),
+                          x0=self._x0.tolist(), lam_a0=self._lam_a0.tolist(), lam_x0=self._lam_x0.tolist())
         self.last_stats = self.solver.stats()
         w = np.asarray(res["x"]).ravel()
         if not self.last_stats.get("success", False) or not np.all(np.isfinite(w)):
