@@ -10,7 +10,6 @@ frames at the start, x along the feet's mean heading, z up.
 
 from __future__ import annotations
 
-import json
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,6 +20,7 @@ import pinocchio as pin
 
 from robot_ctrl.control.static_feedforward import static_torques, weight_shares
 from robot_ctrl.eval import FallCriterion, RunMetrics
+from robot_ctrl.eval.report_file import write_report
 from robot_ctrl.hw.adapter import HardwareAdapter
 from robot_ctrl.hw.types import JointCommand
 from robot_ctrl.robot.model import RobotModel, configuration
@@ -178,9 +178,5 @@ def run_balance(robot: RobotModel, hw: HardwareAdapter, params: BalanceParams = 
     log(f"fell: {str(report['fell']).lower()}  hand_error_m: {hand_error}  peak_torque_ratio: "
         f"{report['peak_torque_ratio']:.3f} ({report['peak_torque_joint']})  peak_grf_n: {report['peak_grf_n']}  "
         f"rtf: {report['rtf']}")
-    if out_dir is not None:
-        out_dir = Path(out_dir)
-        out_dir.mkdir(parents=True, exist_ok=True)
-        (out_dir / "report.json").write_text(json.dumps(report, indent=2) + "\n")
-        log(f"wrote {out_dir / 'report.json'}")
+    write_report(report, out_dir, log)
     return report

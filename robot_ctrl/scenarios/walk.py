@@ -7,7 +7,6 @@ yaw about z), on the floor.
 
 from __future__ import annotations
 
-import json
 import time
 from pathlib import Path
 from typing import Callable
@@ -15,9 +14,9 @@ from typing import Callable
 import numpy as np
 
 from robot_ctrl.control.path_follower import PathFollower, WalkGoal
-from robot_ctrl.control.stabilizer import DcmStabilizer
 from robot_ctrl.control.walking_controller import WalkingController, yaw_of
 from robot_ctrl.eval import FallCriterion, RunMetrics
+from robot_ctrl.eval.report_file import write_report
 from robot_ctrl.hw.adapter import HardwareAdapter
 from robot_ctrl.robot.model import RobotModel
 from robot_ctrl.wpg.footstep import Footstep, rotation
@@ -141,9 +140,5 @@ def run_walk(robot: RobotModel, hw: HardwareAdapter, goal: WalkGoal, params: Wal
     log(f"fell: {str(report['fell']).lower()}  final base (x, y, yaw) {report['final_base_xy_yaw']} vs commanded "
         f"{report['commanded_base_xy_yaw']}  zmp_in_support_ratio {report['zmp_in_support_ratio']}  "
         f"peak_torque_ratio {report['peak_torque_ratio']:.3f}  steps {len(footsteps)}  rtf {report['rtf']}")
-    if out_dir is not None:
-        out_dir = Path(out_dir)
-        out_dir.mkdir(parents=True, exist_ok=True)
-        (out_dir / "report.json").write_text(json.dumps(report, indent=2) + "\n")
-        log(f"wrote {out_dir / 'report.json'}")
+    write_report(report, out_dir, log)
     return report

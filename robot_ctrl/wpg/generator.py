@@ -18,7 +18,7 @@ All positions are in the world frame; the floor is z = 0.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
