@@ -49,7 +49,7 @@ class StateEstimator:
         v[r.v_index] = state.dq
         pin.forwardKinematics(r.pin, self.data, q, v)
         pin.updateFramePlacements(r.pin, self.data)
-        com = pin.centerOfMass(r.pin, self.data, q, v)
+        com = pin.centerOfMass(r.pin, self.data, pin.KinematicLevel.VELOCITY, False)  # reuses the kinematics above
         com_velocity = self.data.vcom[0].copy()
         soles = {s: self.data.oMf[r.frame_ids[f"{s}_foot"]].copy() for s in SIDES}
         wrench = state.foot_wrench or {}

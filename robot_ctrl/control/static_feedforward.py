@@ -37,7 +37,7 @@ def static_torques(model: pin.Model, data: pin.Data, q: np.ndarray, sole_frames:
         model.gravity.linear = gravity - com_acceleration
     try:
         g = pin.computeGeneralizedGravity(model, data, q).copy()
-        weight = sum(inertia.mass for inertia in model.inertias) * np.linalg.norm(model.gravity.linear)
+        weight = pin.computeTotalMass(model) * np.linalg.norm(model.gravity.linear)
     finally:
         model.gravity.linear = gravity
     pin.computeJointJacobians(model, data, q)

@@ -51,7 +51,12 @@ class MujocoBackend(HardwareAdapter):
         robot_bodies = np.flatnonzero(
             np.array([self.m.body(i).name.startswith(prefix) for i in range(self.m.nbody)]))
         self._robot_bodies = set(robot_bodies.tolist())
+        weld = self.m.body_weldid[self.m.geom_bodyid]
+        self._geom_side = [next((side for side, foot in self._foot_weld.items() if w == foot), None) for w in weld]
         self._act = self.map.actuator
+        if not np.array_equal(self._act, np.arange(self._act[0], self._act[0] + self.nj)):
+            raise ValueError("the robot's actuators must be contiguous and in joint order in the MuJoCo model")
+        self._acts = slice(int(self._act[0]), int(self._act[0]) + self.nj)  # views, not copies
         self._tau_demand = np.zeros(self.nj)
         self._force = np.zeros(6)
 
@@ -96,13 +101,16 @@ class MujocoBackend(HardwareAdapter):
     def _write(self, cmd: JointCommand) -> None:
         self._apply_gains(cmd.kp, cmd.kd, cmd.dq, cmd.tau_ff)
         self.d.ctrl[self._act] = cmd.q
-        qa, va = self.map.qpos, self.map.dof
-        bias = self.m.actuator_biasprm[self._act]
+        # Unsaturated servo torque of each physics step, from the actuator length and velocity MuJoCo
+        # computed for that step: kp q_des + (kd dq_des + tau_ff) − kp q − kd dq.
+        acts = self._acts
+        constant = cmd.kp * cmd.q + self.m.actuator_biasprm[acts, 0]
+        length, velocity = self.d.actuator_length[acts], self.d.actuator_velocity[acts]
         for _ in range(self.n_substeps):
-            demand = cmd.kp * cmd.q + bias[:, 0] + bias[:, 1] * self.d.qpos[qa] + bias[:, 2] * self.d.qvel[va]
+            mujoco.mj_step(self.m, self.d)
+            demand = constant - cmd.kp * length - cmd.kd * velocity
             peak = np.abs(demand) > np.abs(self._tau_demand)
             self._tau_demand[peak] = demand[peak]
-            mujoco.mj_step(self.m, self.d)
         if self._viewer is not None:
             self._viewer.sync()
             lag = self.d.time - (time.perf_counter() - self._wall0)
@@ -133,11 +141,7 @@ class MujocoBackend(HardwareAdapter):
 
     # Contacts -----------------------------------------------------------------------------------
     def _foot_side(self, geom: int) -> str | None:
-        weld = self.m.body_weldid[self.m.geom_bodyid[geom]]
-        for side, foot in self._foot_weld.items():
-            if weld == foot:
-                return side
-        return None
+        return self._geom_side[geom]
 
     def _foot_wrenches(self) -> dict[str, np.ndarray]:
         """Floor-on-foot wrench per side, in the sole frame about the sole origin."""
@@ -158,7 +162,8 @@ class MujocoBackend(HardwareAdapter):
                 f = -f
             r = c.pos - d.xpos[self._sole_body[side]]
             world[side][:3] += f
-            world[side][3:] += np.cross(r, f)
+            # r × f written out: np.cross costs more than the rest of this loop.
+            world[side][3:] += (r[1] * f[2] - r[2] * f[1], r[2] * f[0] - r[0] * f[2], r[0] * f[1] - r[1] * f[0])
         out = {}
         for side, w in world.items():
             rot = d.xmat[self._sole_body[side]].reshape(3, 3)

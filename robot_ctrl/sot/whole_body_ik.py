@@ -31,6 +31,7 @@ class WholeBodyIK:
         self.robot = robot
         self.data = robot.pin.createData()
         self.q = np.array(q0, dtype=float)
+        self._stale = True
         ids = robot.frame_ids
         self.feet = {s: FrameTask(f"{s}_foot", ids[f"{s}_foot"], gain=gain) for s in SIDES}
         self.com = ComTask(gain=gain)
@@ -47,7 +48,6 @@ class WholeBodyIK:
     def hold_current(self) -> None:
         """Targets = the current configuration's values; hands inactive; posture = half-sitting
         (within the soft joint limits)."""
-        pin.framesForwardKinematics(self.robot.pin, self.data, self.q)
         for s in SIDES:
             self.feet[s].set_target(self.pose(f"{s}_foot"))
             self.hands[s].set_target(self.pose(f"{s}_hand"))
@@ -61,6 +61,9 @@ class WholeBodyIK:
 
     def pose(self, role: str) -> pin.SE3:
         """World-frame pose of an operational frame at the IK's current configuration."""
+        if self._stale:
+            pin.framesForwardKinematics(self.robot.pin, self.data, self.q)
+            self._stale = False
         return self.data.oMf[self.robot.frame_ids[role]].copy()
 
     def com_position(self) -> np.ndarray:
@@ -70,5 +73,5 @@ class WholeBodyIK:
         """Solve the stack, integrate ``q`` over ``dt`` and return the velocity ``v`` (nv)."""
         v = self.solver.solve(self.robot.pin, self.data, self.q, dt)
         self.q = pin.integrate(self.robot.pin, self.q, v * dt)
-        pin.framesForwardKinematics(self.robot.pin, self.data, self.q)
+        self._stale = True  # frame placements are recomputed only when a pose is asked for
         return v

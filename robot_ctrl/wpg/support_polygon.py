@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -45,9 +46,11 @@ class SupportPolygon:
     @classmethod
     def of_soles(cls, soles: list[tuple[np.ndarray, float]], length: float, width: float) -> "SupportPolygon":
         """Convex hull of sole rectangles given as (centre (2,), yaw)."""
+        if len(soles) == 1:  # a rectangle's corners are already in counter-clockwise order
+            return cls(sole_corners(soles[0][0], soles[0][1], length, width))
         return cls(convex_hull(np.vstack([sole_corners(c, yaw, length, width) for c, yaw in soles])))
 
-    @property
+    @cached_property
     def halfplanes(self) -> tuple[np.ndarray, np.ndarray]:
         v = self.vertices
         edges = np.roll(v, -1, axis=0) - v
