@@ -48,6 +48,136 @@ def _walk(args: argparse.Namespace) -> int:
     return 1 if report["fell"] else 0
 
 
+def _crowd_graph(args: argparse.Namespace):
+    import numpy as np
+
+    from robot_ctrl.crowd.coupling_graph import CouplingGraph
+
+    try:
+        if args.laplacian:
+            return CouplingGraph.from_laplacian(np.loadtxt(args.laplacian, ndmin=2))
+        if args.adjacency:
+            return CouplingGraph.from_adjacency(np.loadtxt(args.adjacency, ndmin=2))
+        return CouplingGraph.named(args.graph, args.n)
+    except (OSError, ValueError) as exc:
+        raise ConfigError(f"crowd: {exc}") from exc
+
+
+def _crowd_certify(args: argparse.Namespace) -> int:
+    import json
+
+    import numpy as np
+
+    from robot_ctrl.crowd.certificates import CouplingConfig, certify
+
+    g = np.loadtxt(args.g_profile, ndmin=1) if args.g_profile else np.ones(1)
+    try:
+        cfg = CouplingConfig(_crowd_graph(args), k=args.k, alpha=args.alpha, m_d=args.md, m_z=args.mz,
+                             m_psi=args.mpsi, lowpass=args.lowpass, g=g)
+    except ValueError as exc:
+        raise ConfigError(f"crowd certify: {exc}") from exc
+    conditions = certify(cfg)
+    if args.json:
+        print(json.dumps([c.to_dict() for c in conditions], indent=2))
+    else:
+        graph = cfg.graph
+        print(f"graph: {graph.topology or 'from file'}, N = {graph.n}, connected: {graph.connected}, "
+              f"λ⁺ = {graph.lambda_plus:.6g}, λ_max = {graph.lambda_max:.6g}")
+        for c in conditions:
+            print(c.line())
+    return 0 if all(c.holds for c in conditions) else 1
+
+
+def _crowd_run(args: argparse.Namespace) -> int:
+    from robot_ctrl.crowd.experiments import run_group
+    from robot_ctrl.eval.report_file import write_report
+
+    graph = _crowd_graph(args)
+    result = run_group(graph, args.k, duration=args.duration, runs=args.runs)
+    violated = [c.name for c in result.conditions if not c.holds and c.name in ("hopf_diffusive", "connectivity")]
+    if violated and not args.allow_unstable:
+        raise ConfigError(f"crowd run: the contraction condition(s) {', '.join(violated)} are violated for this "
+                          "configuration; pass --allow-unstable to simulate it anyway")
+    if violated:
+        print(f"running an uncertified configuration ({', '.join(violated)} violated): convergence is not guaranteed")
+    for c in result.conditions:
+        print(c.line())
+    print(f"empirical rate {result.empirical_rate} 1/s, final phase spread {result.final_spread:.3g} rad")
+    report = result.report()
+    report.update(graph=graph.topology or "from file", n=graph.n, k=args.k, duration_s=args.duration, runs=args.runs)
+    write_report(report, args.out)
+    if args.out is not None:
+        _plot_dispersion(result, args.out / "dispersion.png", f"{graph.topology or 'graph'} N={graph.n} k={args.k}")
+    return 0
+
+
+def _plot_dispersion(result, path: Path, title: str) -> None:
+    import matplotlib
+    import numpy as np
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6, 4))
+    ax.semilogy(result.times, result.dispersion, label="mean angular dispersion R̂")
+    rate = next((c.rate for c in result.conditions if c.name == "hopf_diffusive"), None)
+    if rate is not None:
+        ax.semilogy(result.times, result.dispersion[0] * np.exp(-rate * result.times), "--",
+                    label=f"certified rate {rate:.3g} 1/s")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("R̂")
+    ax.set_ylim(1e-8, 1.5)
+    ax.set_title(title)
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    print(f"wrote {path}")
+
+
+def _crowd_figure(args: argparse.Namespace) -> int:
+    import json
+
+    import matplotlib
+    import matplotlib.ticker
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from robot_ctrl.crowd.experiments import rate_slopes
+
+    data = rate_slopes(runs=args.runs)
+    args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / "slopes.json").write_text(json.dumps(data, indent=2) + "\n")
+    fig, (ax_a, ax_b) = plt.subplots(1, 2, figsize=(11, 4.2))
+    for topology, marker in (("all", "o"), ("ring", "s"), ("chain", "^"), ("star", "d")):
+        rows = [v for v in data.values() if v["topology"] == topology]
+        row = next(v for v in rows if v["n"] == 5)
+        ax_a.plot(row["k"], row["rates"], marker, label=f"{topology}, N = 5 (simulated)")
+        ax_a.plot(row["k"], [k * row["lambda_plus"] for k in row["k"]], "k:", lw=0.8)
+        ns = [v["n"] for v in rows]
+        ax_b.plot(ns, [v["slope"] for v in rows], marker, ms=9, mfc="none", label=f"{topology} (simulated)")
+        ax_b.plot(ns, [v["theory_slope"] for v in rows], "--", label=f"{topology}: λ⁺ (theory)")
+    ax_a.set_xlabel("coupling strength k")
+    ax_a.set_ylabel("empirical rate λ [1/s]")
+    ax_a.set_title("a) rate vs coupling (dotted: k λ⁺)")
+    ax_a.legend(fontsize=8)
+    ax_b.set_xscale("log")
+    ax_b.set_yscale("log")
+    ax_b.set_xticks(sorted({v["n"] for v in data.values()}))
+    ax_b.xaxis.set_major_formatter(matplotlib.ticker.ScalarFormatter())
+    ax_b.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+    ax_b.set_xlabel("number of oscillators N")
+    ax_b.set_ylabel("slope dλ/dk")
+    ax_b.set_title("b) slope vs N (thesis Fig. 4.6)")
+    ax_b.legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    fig.savefig(args.out / "fig_4_6.png", dpi=120)
+    worst = max(abs(v["slope"] - v["theory_slope"]) / v["theory_slope"] for v in data.values())
+    print(f"wrote {args.out / 'fig_4_6.png'} and slopes.json; largest slope deviation from λ⁺: {worst:.1%}")
+    return 0
+
+
 def _robots(args: argparse.Namespace) -> int:
     from robot_ctrl.robot.model import load_robot
 
@@ -85,6 +215,45 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--viewer", action="store_true", help="open the MuJoCo viewer (needs a display)")
     p.add_argument("--out", type=Path, help="write DIR/report.json")
     p.set_defaults(run=_walk)
+
+    crowd = sub.add_parser("crowd", help="coupled gaits: contraction certificates and crowd simulation")
+    crowd_sub = crowd.add_subparsers(dest="crowd_command", required=True)
+
+    def graph_args(p):
+        p.add_argument("--graph", choices=("all", "ring", "chain", "star"), default="all", help="named topology")
+        p.add_argument("--n", type=int, default=8, help="number of agents (named topologies)")
+        p.add_argument("--laplacian", type=Path, help="Laplacian matrix as a text file (any graph)")
+        p.add_argument("--adjacency", type=Path, help="adjacency (link weight) matrix as a text file")
+
+    p = crowd_sub.add_parser("certify", help="check the contraction conditions of a coupling configuration",
+                             description="Prints each applicable sufficient condition with holds/violated, its "
+                                         "margin and the guaranteed convergence rate. Exit status 1 if any is violated.")
+    graph_args(p)
+    p.add_argument("--k", type=float, help="phase / state coupling strength")
+    p.add_argument("--alpha", type=float, help="leader coupling strength")
+    p.add_argument("--md", type=float, help="step-frequency (distance) coupling m_d")
+    p.add_argument("--mz", type=float, help="step-length coupling m_z")
+    p.add_argument("--mpsi", type=float, help="heading coupling m_psi")
+    p.add_argument("--lowpass", type=float, help="position low-pass filter constant (with --md)")
+    p.add_argument("--g-profile", type=Path, help="speed profile g(phi) samples over a cycle (text file)")
+    p.add_argument("--json", action="store_true", help="machine-readable output")
+    p.set_defaults(run=_crowd_certify)
+
+    p = crowd_sub.add_parser("run", help="simulate coupled Andronov-Hopf gait oscillators (kinematic)",
+                             description="Simulates the group from random initial states, writes DIR/report.json "
+                                         "(certificate, empirical rate, final phase spread) and DIR/dispersion.png.")
+    graph_args(p)
+    p.add_argument("--k", type=float, required=True, help="coupling strength")
+    p.add_argument("--duration", type=float, default=30.0, help="simulated time [s]")
+    p.add_argument("--runs", type=int, default=100, help="random initial conditions averaged")
+    p.add_argument("--allow-unstable", action="store_true", help="simulate even if the certificate is violated")
+    p.add_argument("--out", type=Path, help="output folder")
+    p.set_defaults(run=_crowd_run)
+
+    p = crowd_sub.add_parser("figure", help="reproduce thesis Fig. 4.6 (rate vs k, slope vs N)")
+    p.add_argument("--runs", type=int, default=30, help="random initial conditions per point")
+    p.add_argument("--out", type=Path, default=Path("runs/fig_4_6"), help="output folder")
+    p.set_defaults(run=_crowd_figure)
 
     p = sub.add_parser("robots", help="list the robot configs (and convert their MJCF with --convert)")
     p.add_argument("--convert", action="store_true", help="convert each robot to its cached MJCF and print the path")

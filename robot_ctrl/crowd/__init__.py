@@ -1,0 +1,1 @@
+"""Coupled gaits of several humanoids: coupling graphs, contraction certificates, crowd simulation."""

@@ -1,0 +1,93 @@
+"""Coupling graphs, contraction certificates and the kinematic Hopf-network crowd (thesis 4.3)."""
+
+import json
+
+import numpy as np
+import pytest
+
+from robot_ctrl.cli import main
+from robot_ctrl.crowd.certificates import CouplingConfig, certify
+from robot_ctrl.crowd.coupling_graph import TOPOLOGIES, CouplingGraph
+from robot_ctrl.crowd.experiments import run_group
+
+
+@pytest.mark.parametrize("topology", TOPOLOGIES)
+@pytest.mark.parametrize("n", [3, 5, 8, 16, 49])
+def test_table_4_1_closed_forms_match_the_spectrum(topology, n):
+    graph = CouplingGraph.named(topology, n)
+    assert graph.connected
+    assert graph.lambda_plus == pytest.approx(graph.closed_form_lambda_plus(), abs=1e-9)
+
+
+def by_name(conditions):
+    return {c.name: c for c in conditions}
+
+
+def test_hopf_bound_on_both_sides():
+    # Thesis 4.3.5: three all-to-all characters contract for k ≥ 1/3; k = 0.111 violates the bound.
+    assert by_name(certify(CouplingConfig(CouplingGraph.named("all", 3), k=0.334)))["hopf_diffusive"].holds
+    low = by_name(certify(CouplingConfig(CouplingGraph.named("all", 3), k=0.111)))["hopf_diffusive"]
+    assert not low.holds and low.rate is None and low.margin == pytest.approx(3 * 0.111 - 1)
+    chain = by_name(certify(CouplingConfig(CouplingGraph.named("chain", 3), k=1.5)))["hopf_diffusive"]
+    assert chain.rate == pytest.approx(1.5 * 1.0 - 1.0)  # λ⁺ = 2(1 − cos(π/3)) = 1
+
+
+def test_numerical_certificate_agrees_with_the_closed_form_on_a_symmetric_graph():
+    A = -CouplingGraph.named("ring", 6).laplacian
+    np.fill_diagonal(A, 0.0)
+    numeric = by_name(certify(CouplingConfig(CouplingGraph.from_adjacency(A), k=1.5)))["hopf_diffusive"]
+    closed = by_name(certify(CouplingConfig(CouplingGraph.named("ring", 6), k=1.5)))["hopf_diffusive"]
+    assert numeric.method.startswith("numerical") and closed.method.startswith("closed form")
+    assert numeric.margin == pytest.approx(closed.margin, abs=1e-9)
+
+
+def test_disconnected_and_invalid_graphs_are_reported():
+    A = np.zeros((4, 4))
+    A[0, 1] = A[1, 0] = A[2, 3] = A[3, 2] = 1.0
+    (cond,) = certify(CouplingConfig(CouplingGraph.from_adjacency(A), k=1.0))
+    assert cond.name == "connectivity" and not cond.holds
+    with pytest.raises(ValueError, match="rows must sum to zero"):
+        CouplingGraph.from_laplacian([[1.0, -0.5], [-1.0, 1.0]])
+    with pytest.raises(ValueError, match="≥ 0"):
+        CouplingGraph.from_adjacency([[0.0, -1.0], [1.0, 0.0]])
+
+
+def test_step_frequency_and_leader_conditions():
+    g = 1.0 + 0.3 * np.sin(np.linspace(0, 2 * np.pi, 64, endpoint=False))
+    conds = by_name(certify(CouplingConfig(CouplingGraph.named("all", 5), k=0.1, alpha=1.5, m_d=0.4, lowpass=3.0, g=g)))
+    assert conds["step_frequency"].rate == pytest.approx(0.4 * g.min() * 5)
+    assert conds["leader_group"].holds and conds["leader_group"].rate == pytest.approx(0.5)
+    assert conds["leader_group_1perp"].margin == pytest.approx(0.1 * 5 + 1.5 - 1)
+    assert conds["lowpass_filter"].margin == pytest.approx(3.0 - np.sqrt(0.4 * g.max() * 5))
+    assert not by_name(certify(CouplingConfig(CouplingGraph.named("all", 5), m_d=-0.4, g=g)))["step_frequency"].holds
+
+
+@pytest.mark.parametrize("topology,n", [("all", 5), ("ring", 8), ("chain", 5), ("star", 8)])
+def test_empirical_rate_beats_the_certificate_and_the_slope_matches(topology, n):
+    graph = CouplingGraph.named(topology, n)
+    lam = graph.closed_form_lambda_plus()
+    ks = [1.2 / lam, 2.0 / lam]
+    runs = [run_group(graph, k, duration=15.0, runs=10) for k in ks]
+    for k, result in zip(ks, runs):
+        certified = by_name(result.conditions)["hopf_diffusive"].rate
+        assert result.empirical_rate >= certified
+    slope = (runs[1].empirical_rate - runs[0].empirical_rate) / (ks[1] - ks[0])
+    assert slope == pytest.approx(lam, rel=0.10)
+
+
+def test_negative_coupling_does_not_converge():
+    result = run_group(CouplingGraph.named("all", 5), -0.3, duration=10.0, runs=10)
+    assert result.empirical_rate is None and result.dispersion[-1] > 0.3
+
+
+def test_cli_certify_and_run(tmp_path, capsys):
+    assert main(["crowd", "certify", "--graph", "ring", "--n", "8", "--k", "2.0", "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data[0]["name"] == "hopf_diffusive" and data[0]["holds"] is True
+    assert main(["crowd", "run", "--graph", "chain", "--n", "5", "--k", "0.3", "--runs", "5"]) == 2
+    assert "--allow-unstable" in capsys.readouterr().err
+    assert main(["crowd", "run", "--graph", "all", "--n", "4", "--k", "0.5", "--runs", "5", "--duration", "10",
+                 "--out", str(tmp_path)]) == 0
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert report["final_phase_spread_rad"] < 0.1 and report["empirical_rate_per_s"] > 0
+    assert (tmp_path / "dispersion.png").stat().st_size > 10_000
