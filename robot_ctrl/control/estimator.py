@@ -13,6 +13,7 @@ import pinocchio as pin
 
 from robot_ctrl.hw.types import JointState
 from robot_ctrl.robot.model import RobotModel, configuration
+from robot_ctrl.wpg.footstep import yaw_of
 from robot_ctrl.wpg.support_polygon import SupportPolygon
 
 SIDES = ("left", "right")
@@ -60,7 +61,7 @@ class StateEstimator:
         if down:
             foot = r.config.foot
             support = SupportPolygon.of_soles(
-                [(soles[s].act(np.array([*foot.center_offset, 0.0]))[:2], _yaw(soles[s].rotation)) for s in down],
+                [(soles[s].act(np.array([*foot.center_offset, 0.0]))[:2], yaw_of(soles[s].rotation)) for s in down],
                 foot.length, foot.width)
         return Estimate(com.copy(), com_velocity, soles, contact, zmp, support)
 
@@ -79,7 +80,3 @@ def measured_zmp(contacts: dict[str, tuple[pin.SE3, np.ndarray]]) -> np.ndarray 
     if force[2] <= 1e-6:
         return None
     return np.array([-moment[1] / force[2], moment[0] / force[2]])
-
-
-def _yaw(rotation: np.ndarray) -> float:
-    return float(np.arctan2(rotation[1, 0], rotation[0, 0]))

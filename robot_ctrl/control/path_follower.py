@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robot_ctrl.wpg.footstep import rotation
+from robot_ctrl.wpg.footstep import rotation, wrap_angle
 
 
 @dataclass(frozen=True)
@@ -108,7 +108,7 @@ class PathFollower:
         s, s_dot = self.progress(t)
         target = self.world_pose(self.goal.pose_at(s))
         error_xy = rotation(planned[2]).T @ (target[:2] - planned[:2])
-        error_yaw = float(np.arctan2(np.sin(target[2] - planned[2]), np.cos(target[2] - planned[2])))
+        error_yaw = wrap_angle(target[2] - planned[2])
         settled = np.linalg.norm(error_xy) < self.tolerance[0] and abs(error_yaw) < self.tolerance[1]
         if s >= self.goal.length and (settled or t > self.end_time + self.settle_time):
             self.done = True

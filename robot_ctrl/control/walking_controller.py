@@ -12,19 +12,15 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from robot_ctrl.control.static_feedforward import static_torques
+from robot_ctrl.control.static_feedforward import static_torques, weight_shares
 from robot_ctrl.control.estimator import StateEstimator
 from robot_ctrl.control.stabilizer import DcmStabilizer
 from robot_ctrl.hw.types import JointCommand, JointState
 from robot_ctrl.robot.model import RobotModel, configuration
 from robot_ctrl.sot.whole_body_ik import SIDES, WholeBodyIK
-from robot_ctrl.wpg.footstep import Footstep
+from robot_ctrl.wpg.footstep import Footstep, yaw_of
 from robot_ctrl.wpg.generator import WalkingPatternGenerator, WalkReference
 from robot_ctrl.wpg.params import WalkParams
-
-
-def yaw_of(rotation: np.ndarray) -> float:
-    return float(np.arctan2(rotation[1, 0], rotation[0, 0]))
 
 
 def sole_footstep(side: str, pose: pin.SE3) -> Footstep:
@@ -92,7 +88,5 @@ class WalkingController:
         down = [s for s in SIDES if ref.in_contact[s]]
         if len(down) == 1:
             return [ids[f"{down[0]}_foot"]], [1.0]
-        left, right = ref.foot_position["left"][:2], ref.foot_position["right"][:2]
-        axis = left - right
-        share = float(np.clip(np.dot(ref.zmp - right, axis) / np.dot(axis, axis), 0.02, 0.98))
-        return [ids["left_foot"], ids["right_foot"]], [share, 1.0 - share]
+        shares = weight_shares(ref.zmp, ref.foot_position["left"][:2], ref.foot_position["right"][:2])
+        return [ids["left_foot"], ids["right_foot"]], list(shares)

@@ -14,12 +14,12 @@ from typing import Callable
 import numpy as np
 
 from robot_ctrl.control.path_follower import PathFollower, WalkGoal
-from robot_ctrl.control.walking_controller import WalkingController, yaw_of
+from robot_ctrl.control.walking_controller import WalkingController
 from robot_ctrl.eval import FallCriterion, RunMetrics
 from robot_ctrl.eval.report_file import write_report
 from robot_ctrl.hw.adapter import HardwareAdapter
 from robot_ctrl.robot.model import RobotModel
-from robot_ctrl.wpg.footstep import Footstep, rotation
+from robot_ctrl.wpg.footstep import Footstep, rotation, wrap_angle, yaw_of
 from robot_ctrl.wpg.params import WalkParams
 
 STAND_AFTER = 2.0  # [s] standing after the stop
@@ -35,7 +35,7 @@ def base_pose(state) -> np.ndarray:
 
 def relative(pose: np.ndarray, origin: np.ndarray) -> np.ndarray:
     xy = rotation(origin[2]).T @ (pose[:2] - origin[:2])
-    return np.array([xy[0], xy[1], np.arctan2(np.sin(pose[2] - origin[2]), np.cos(pose[2] - origin[2]))])
+    return np.array([xy[0], xy[1], wrap_angle(pose[2] - origin[2])])
 
 
 def run_walk(robot: RobotModel, hw: HardwareAdapter, goal: WalkGoal, params: WalkParams | None = None,
@@ -125,8 +125,7 @@ def run_walk(robot: RobotModel, hw: HardwareAdapter, goal: WalkGoal, params: Wal
         final_base_xy_yaw=[round(float(final[0]), 4), round(float(final[1]), 4), round(float(final[2]), 5)],
         commanded_base_xy_yaw=[round(float(v), 4) for v in target],
         final_position_error_m=round(float(np.linalg.norm(final[:2] - target[:2])), 4),
-        final_yaw_error_deg=round(float(np.degrees(abs(np.arctan2(np.sin(final[2] - target[2]),
-                                                                 np.cos(final[2] - target[2]))))), 3),
+        final_yaw_error_deg=round(float(np.degrees(abs(wrap_angle(final[2] - target[2])))), 3),
         ended_in_double_support=bool(all(est.in_contact.values())),
         stood_s=round(state.t - stood_since, 3) if stood_since is not None else 0.0,
         zmp_in_support_ratio=round(inside / max(contact_samples, 1), 5),

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robot_ctrl.wpg.footstep import Footstep, FootRef, other, rotation
+from robot_ctrl.wpg.footstep import Footstep, FootRef, other, rotation, wrap_angle
 from robot_ctrl.wpg.lipm import com_at
 from robot_ctrl.wpg.mpc import MpcInfeasible, MpcProblem, MpcSolution, Reach, SampleSupport, WalkingMPC
 from robot_ctrl.wpg.params import WalkParams
@@ -162,7 +162,7 @@ class WalkingPatternGenerator:
         while t_land < horizon and index < 2:
             side = other(previous.side)
             heading = self.heading + self.velocity[2] * t_land
-            yaw = previous.yaw + np.clip(_wrap(heading - previous.yaw), -p.max_yaw_step, p.max_yaw_step)
+            yaw = previous.yaw + np.clip(wrap_angle(heading - previous.yaw), -p.max_yaw_step, p.max_yaw_step)
             if self.stop_feet is not None:
                 fixed = FootRef.known(self._toward_goal(previous, side))
                 final = self._at_goal(fixed) and self._at_goal(previous)
@@ -184,7 +184,7 @@ class WalkingPatternGenerator:
     def _toward_goal(self, previous: FootRef, side: str) -> Footstep:
         """The stop footstep of ``side``, clamped into the reach region (and yaw step) of ``previous``."""
         goal = self.stop_feet[side]
-        yaw = previous.yaw + np.clip(_wrap(goal.yaw - previous.yaw), -self.p.max_yaw_step, self.p.max_yaw_step)
+        yaw = previous.yaw + np.clip(wrap_angle(goal.yaw - previous.yaw), -self.p.max_yaw_step, self.p.max_yaw_step)
         local = rotation(previous.yaw).T @ (goal.xy - previous.offset)
         box = self._reach_box(side)
         local = np.clip(local, [box[0], box[2]], [box[1], box[3]])
@@ -194,7 +194,7 @@ class WalkingPatternGenerator:
     def _at_goal(self, foot: FootRef) -> bool:
         goal = self.stop_feet[foot.side]
         return (not foot.S.any() and np.allclose(foot.offset, goal.xy, atol=1e-6)
-                and abs(_wrap(foot.yaw - goal.yaw)) < 1e-6)
+                and abs(wrap_angle(foot.yaw - goal.yaw)) < 1e-6)
 
     def problem(self) -> MpcProblem:
         p = self.p
@@ -327,10 +327,6 @@ class WalkingPatternGenerator:
             zmp=np.array([sx[0] - h_g * sx[2], sy[0] - h_g * sy[2]]),
             foot_position=positions, foot_yaw=yaws, foot_velocity=velocities, in_contact=contact, phase=phase,
         )
-
-
-def _wrap(angle: float) -> float:
-    return float(np.arctan2(np.sin(angle), np.cos(angle)))
 
 
 def _polygon(seg: _Segment, s: float, half: np.ndarray) -> tuple[np.ndarray, np.ndarray, FootRef]:

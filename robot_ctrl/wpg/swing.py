@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from robot_ctrl.wpg.footstep import Footstep
+from robot_ctrl.wpg.footstep import Footstep, wrap_angle
 
 
 def quintic_coefficients(duration: float, p0: np.ndarray, v0: np.ndarray, a0: np.ndarray, p1: np.ndarray) -> np.ndarray:
@@ -49,7 +49,7 @@ class SwingTrajectory:
         if t >= self.duration - 1e-9:
             return
         p, v, a = _evaluate(self._c, t - self._t0)
-        yaw = p[2] + np.arctan2(np.sin(landing.yaw - p[2]), np.cos(landing.yaw - p[2]))
+        yaw = p[2] + wrap_angle(landing.yaw - p[2])
         self._c = quintic_coefficients(self.duration - t, p, v, a, np.array([landing.x, landing.y, yaw]))
         self._t0 = t
         self.landing = landing
