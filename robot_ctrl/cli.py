@@ -178,6 +178,36 @@ def _crowd_figure(args: argparse.Namespace) -> int:
     return 0
 
 
+def _crowd_walk(args: argparse.Namespace) -> int:
+    from robot_ctrl.robot.model import load_robot
+    from robot_ctrl.scenarios.group_walk import run_group_walk
+
+    _check_viewer(args)
+    robot = load_robot(args.robot)
+    try:
+        report = run_group_walk(robot, n=args.robots, graph=args.graph, k=args.k, m_z=args.mz, m_psi=args.mpsi,
+                                speed=args.speed, spacing=args.spacing, coupled_time=args.coupled_time,
+                                seed=args.seed, allow_unstable=args.allow_unstable, out_dir=args.out,
+                                viewer=args.viewer)
+    except ValueError as exc:
+        raise ConfigError(f"crowd walk: {exc}") from exc
+    return 1 if report["fell"] else 0
+
+
+def _crowd_gait_profile(args: argparse.Namespace) -> int:
+    from robot_ctrl.crowd.gait_profile import MODELS
+    from robot_ctrl.robot.model import load_robot
+    from robot_ctrl.scenarios.gait_profile import measure_gait_profile
+
+    robot = load_robot(args.robot)
+    out = args.out or MODELS / f"{robot.name}_gait_profile.json"
+    try:
+        measure_gait_profile(robot, speed=args.speed, cycles=args.cycles, out=out)
+    except ValueError as exc:
+        raise ConfigError(f"crowd gait-profile: {exc}") from exc
+    return 0
+
+
 def _robots(args: argparse.Namespace) -> int:
     from robot_ctrl.robot.model import load_robot
 
@@ -254,6 +284,35 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--runs", type=int, default=30, help="random initial conditions per point")
     p.add_argument("--out", type=Path, default=Path("runs/fig_4_6"), help="output folder")
     p.set_defaults(run=_crowd_figure)
+
+    p = crowd_sub.add_parser("walk", help="robots walking side by side with coupled gaits (MuJoCo)",
+                             description="N robots in one MuJoCo world, each with its own walking controller, start "
+                                         "at random step phases and walk abreast along +x; step phase (k), step "
+                                         "length (m_z) and heading (m_psi) are coupled through the gait bridge. "
+                                         "Writes DIR/report.json and DIR/phases.png. Exit status 1 if a robot fell.")
+    p.add_argument("--robot", default="talos", help=f"robot config name ({', '.join(available_robots())})")
+    p.add_argument("--robots", type=int, default=3, help="number of robots, 2..8")
+    p.add_argument("--graph", choices=("all", "ring", "chain", "star"), default="all", help="coupling topology")
+    p.add_argument("--k", type=float, default=1.0, help="step-phase coupling k [1/s]")
+    p.add_argument("--mz", type=float, default=1.0, help="step-length coupling m_z [1/m]")
+    p.add_argument("--mpsi", type=float, default=0.5, help="heading consensus m_psi [1/s]")
+    p.add_argument("--speed", type=float, default=0.2, help="nominal walking speed [m/s], 0.05..0.3")
+    p.add_argument("--spacing", type=float, default=1.2, help="lateral distance between robots [m]")
+    p.add_argument("--coupled-time", type=float, default=10.0, help="walking time with the coupling on [s]")
+    p.add_argument("--seed", type=int, default=0, help="seed of the random start phases")
+    p.add_argument("--allow-unstable", action="store_true", help="run even if the certificate is violated")
+    p.add_argument("--viewer", action="store_true", help="open the MuJoCo viewer (needs a display)")
+    p.add_argument("--out", type=Path, help="output folder")
+    p.set_defaults(run=_crowd_walk)
+
+    p = crowd_sub.add_parser("gait-profile", help="measure the gait's speed profile g(phi) in MuJoCo",
+                             description="Walks straight and bins the measured CoM forward speed over the gait "
+                                         "phase; the crowd certificates and simulations use it.")
+    p.add_argument("--robot", default="talos", help=f"robot config name ({', '.join(available_robots())})")
+    p.add_argument("--speed", type=float, default=0.2, help="walking speed [m/s], 0.05..0.3")
+    p.add_argument("--cycles", type=int, default=6, help="gait cycles averaged")
+    p.add_argument("--out", type=Path, help="output JSON (default models/<robot>_gait_profile.json)")
+    p.set_defaults(run=_crowd_gait_profile)
 
     p = sub.add_parser("robots", help="list the robot configs (and convert their MJCF with --convert)")
     p.add_argument("--convert", action="store_true", help="convert each robot to its cached MJCF and print the path")

@@ -91,3 +91,60 @@ def test_cli_certify_and_run(tmp_path, capsys):
     report = json.loads((tmp_path / "report.json").read_text())
     assert report["final_phase_spread_rad"] < 0.1 and report["empirical_rate_per_s"] > 0
     assert (tmp_path / "dispersion.png").stat().st_size > 10_000
+
+
+def test_schoener_dose_region_and_rate():
+    graph = CouplingGraph.named("ring", 5)
+    spread = np.pi / 3
+    sd = by_name(certify(CouplingConfig(graph, k_sine=0.8, heading_spread=spread)))["schoener_dose"]
+    assert sd.holds and sd.rate == pytest.approx(0.8 * graph.lambda_plus * 0.5)
+    # The closed-form rate bounds the numerical one of the same graph given as a matrix.
+    A = -graph.laplacian
+    np.fill_diagonal(A, 0.0)
+    A[0, 1] *= 1.5  # asymmetric: numerical certificate
+    numeric = by_name(certify(CouplingConfig(CouplingGraph.from_adjacency(A), k_sine=0.8, heading_spread=spread)))
+    assert numeric["schoener_dose"].method.startswith("numerical") and numeric["schoener_dose"].holds
+    assert not by_name(certify(CouplingConfig(graph, k_sine=-0.1)))["schoener_dose"].holds
+    goal = by_name(certify(CouplingConfig(graph, m_psi=0.7)))["heading_goal_region"]
+    assert goal.holds and goal.rate == pytest.approx(0.7)
+
+
+def test_sine_headings_converge_at_the_certified_rate():
+    """Eq. 4.45 integrated from headings inside ±30°: the spread decays at least as fast as certified."""
+    from robot_ctrl.crowd.gait_coupling import GaitCoupling
+
+    graph = CouplingGraph.named("chain", 4)
+    law = GaitCoupling(graph, k=0.6)
+    rate = by_name(law.certify(np.ones(4), 1.0, spread=np.radians(60)))["schoener_dose"].rate
+    psi = np.radians([30.0, -30.0, 10.0, -5.0])
+    def disagreement(p):  # distance to the synchronization manifold, ‖V ψ‖
+        return np.linalg.norm(p - p.mean())
+
+    dt, start = 0.001, disagreement(psi)
+    for _ in range(3000):
+        psi = psi + dt * law.phase_rates(psi, np.zeros(4), 0.0)  # ψ̇_i = −k Σ_j A_ij sin(ψ_i − ψ_j)
+    assert 0 < disagreement(psi) <= start * np.exp(-rate * 3.0)
+
+
+def test_gait_bridge_maps_frequency_and_step_length():
+    from robot_ctrl.crowd.gait_bridge import GaitBridge
+
+    bridge = GaitBridge(step_period=0.8, speed=0.2)
+    cmd = bridge.command(bridge.omega0 * 1.1, 0.2, 0.05)
+    assert cmd.time_scale == pytest.approx(1 / 1.1) and not cmd.saturated
+    assert cmd.velocity == pytest.approx((1.2 * 1.1 * 0.2, 0.0, 0.05))  # (1 + μ) ω/ω₀ v₀
+    slow = bridge.command(bridge.omega0 * 0.5, 0.9, 1.0)
+    assert slow.saturated and slow.time_scale == 1.25 and slow.velocity[0] == pytest.approx(1.5 * 0.2 / 1.25)
+    assert slow.velocity[2] == 0.3
+    with pytest.raises(ValueError, match="finite"):
+        bridge.command(np.nan, 0.0, 0.0)
+
+
+def test_phase_coupling_matches_the_linear_law_near_synchrony():
+    from robot_ctrl.crowd.gait_coupling import GaitCoupling
+
+    graph = CouplingGraph.named("star", 4)
+    law = GaitCoupling(graph, k=0.5)
+    phases = np.array([0.01, -0.02, 0.015, 0.0]) + 2 * np.pi * np.array([0, 1, 3, -2])  # whole cycles apart
+    linear = 1.0 - 0.5 * graph.laplacian @ np.array([0.01, -0.02, 0.015, 0.0])
+    np.testing.assert_allclose(law.phase_rates(phases, np.zeros(4), 1.0), linear, atol=1e-5)

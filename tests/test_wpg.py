@@ -128,3 +128,30 @@ def test_bad_parameters_name_the_field(field, value):
 def test_velocity_reference_must_be_finite():
     with pytest.raises(ValueError, match="finite"):
         standing_generator().set_velocity(np.nan, 0.0, 0.0)
+
+
+@pytest.mark.parametrize("scale", [0.8, 1.25])
+def test_time_scale_stretches_the_step_period_and_keeps_the_speed(scale):
+    gen = standing_generator()
+    gen.set_time_scale(scale)
+    gen.set_velocity(0.2, 0.0, 0.0)
+    phases, com = [], []
+    while gen.t < 12.0:
+        gen.update()
+        com.append((gen.t, gen.com_x[0]))
+        for tau in np.linspace(0.0, gen.sample_duration, 4, endpoint=False):
+            phases.append(gen.gait_phase(tau))
+    landings = np.array([td.t for td in gen.touchdowns])
+    np.testing.assert_allclose(np.diff(landings), scale * PARAMS.step_period, atol=1e-9)
+    (t0, x0), (t1, x1) = com[-40], com[-1]
+    assert (x1 - x0) / (t1 - t0) == pytest.approx(0.2, abs=0.01)  # the mean speed still follows the reference
+    steps = np.diff([f.x for f in (td.planned for td in gen.touchdowns[-4:])])
+    np.testing.assert_allclose(steps, 0.2 * scale * PARAMS.step_period, atol=0.02)  # longer steps when slower
+    known = np.array([p for p in phases if p is not None])
+    assert np.all(np.diff(known) > 0) and np.diff(known).max() < 0.2  # continuous, increasing
+    assert known[-1] == pytest.approx(np.pi * len(landings) + np.pi * 0.5, abs=np.pi)  # π per step
+
+
+def test_time_scale_range_is_checked():
+    with pytest.raises(ValueError, match=r"time_scale = 3.0 is outside the allowed range \[0.5, 2.0\]"):
+        standing_generator().set_time_scale(3.0)

@@ -1,7 +1,8 @@
 """WalkingController: WPG → stack-of-tasks IK → joint commands, one call per control tick.
 
-Each tick: every ``sample_time`` the walking pattern generator solves its MPC; the plan is
-sampled at the tick; the balance stabilizer corrects the CoM reference from the measured state;
+Each tick: when the tick reaches the end of the pattern generator's current sample, it solves its
+MPC for the next one (samples need not be a whole number of ticks: the gait's time scale can
+stretch them); the plan is sampled at the tick; the balance stabilizer corrects the CoM reference from the measured state;
 the IK (feet, then CoM + waist, then posture) integrates the reference configuration; the command
 carries the quasi-static torque feedforward (with the LIP's d'Alembert force) for the planned contact
 split.
@@ -46,10 +47,9 @@ class WalkingController:
         self.params = WalkParams(**fields)
         self.wpg = WalkingPatternGenerator(self.params, sole_footstep("left", feet["left"]),
                                            sole_footstep("right", feet["right"]), com[:2])
-        self.ticks_per_sample = round(self.params.sample_time / control_dt)
-        if abs(self.ticks_per_sample * control_dt - self.params.sample_time) > 1e-9:
-            raise ValueError(f"sample_time {self.params.sample_time} s is not a multiple of the control period "
-                             f"{control_dt} s")
+        if control_dt > self.params.sample_time:
+            raise ValueError(f"control_dt = {control_dt} s must not exceed WalkParams.sample_time = "
+                             f"{self.params.sample_time} s")
         self.stabilizer = stabilizer if stabilizer is not None else DcmStabilizer(self.params.com_height)
         self.estimator = StateEstimator(robot)
         self.estimate = None
@@ -57,10 +57,15 @@ class WalkingController:
         self.k = 0
         self.reference: WalkReference | None = None
 
+    @property
+    def sample_due(self) -> bool:
+        """The next :meth:`step` starts a new pattern-generator sample (references set now apply to it)."""
+        return self.k * self.dt >= self.wpg.t - 1e-9
+
     def step(self, state: JointState) -> JointCommand:
-        if self.k % self.ticks_per_sample == 0:
+        if self.sample_due:
             self.wpg.update()
-        tau = (self.k % self.ticks_per_sample) * self.dt
+        tau = self.k * self.dt - self.wpg.sample_start
         self.k += 1
         ref = self.wpg.sample(tau)
         self.reference = ref

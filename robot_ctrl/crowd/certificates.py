@@ -23,11 +23,23 @@ profile (forward speed over a cycle, normalized or not), given as samples over o
   ``(1 − a)²/(1 + a)² + (1 − b)²/(1 + b)² < 1``, a = λ⁺_min/λ⁺_max, b = min g / max g; other graphs:
   the projected symmetrized Jacobian ``−m_d V (L D_g)_s Vᵀ`` over sampled g values.
 - ``lowpass_filter`` (journal/paper 003): with ``ż = −α z + G(φ)``, ``α > sqrt(m_d max g λ_max(L_s))``.
-- ``step_length`` (scenario 3): ``ż = ω g(φ)(1 − m_z (L z + c))``; rate ``ρ_z = m_z min g λ⁺`` (ω = 1),
-  with phase coupling the overall rate is ``min(ρ_φ, ρ_z)``.
+- ``step_length`` (scenario 3): ``ż = ω g(φ)(1 − m_z (L z + c))``; rate ``ρ_z = m_z ω min g λ⁺`` with ω the
+  lowest gait frequency (``omega``, 1 by default as in the thesis); with phase coupling the overall
+  rate is ``min(ρ_φ, ρ_z)``.
 - ``heading_consensus`` (journal eq. 12): ``ψ̇_i = ω_i (sin(χ − ψ_i) + g_ψ)`` contracts for any
   consensus signal χ while |χ − ψ_i| < π/2 (Jacobian −ω cos(χ − ψ_i)); over a heading spread Δ < π/2
   the rate is ``m_ψ ω cos Δ``.
+- ``heading_goal_region`` (thesis 4.4.3, eqs. 4.34-4.38): one agent steering to a goal direction,
+  ``ψ̇ = −m_ψ sin(ψ − ψ_goal) g(ψ)`` with any g > 0, is contracting in the metric
+  ``Θ = 1/(g (1 + cos(ψ − ψ_goal)))`` on the whole region |ψ − ψ_goal| < π, rate m_ψ min g (g = 1 here).
+- ``schoener_dose`` (thesis 4.4.3, eq. 4.45): sine diffusive coupling ``ψ̇_i = −k Σ_j A_ij sin(ψ_i − ψ_j)``
+  (headings, or gait phases coupled by their sine) is partially contracting where every coupled
+  difference stays below π/2 (diagonal dominance, ‖·‖∞). Its Jacobian is ``−k L(W)``, the Laplacian
+  with weights ``A_ij cos(ψ_i − ψ_j) ≥ A_ij cos Δ``; for a symmetric graph ``L(W) − cos Δ L`` is a
+  Laplacian with non-negative weights, so the rate inside a spread Δ is at least ``k λ⁺ cos Δ``
+  (our derivation from the thesis's Jacobian). Asymmetric graphs: the projected symmetrized
+  Jacobian over sampled angle sets of spread ≤ Δ. Outside the region the potential
+  U = −k Σ A_ij cos(ψ_i − ψ_j) (eq. 4.40) still decreases: convergence without a guaranteed rate.
 """
 
 from __future__ import annotations
@@ -67,20 +79,24 @@ class CouplingConfig:
     m_d: float | None = None  # step-frequency (distance) coupling
     m_z: float | None = None  # step-length coupling
     m_psi: float | None = None  # heading coupling
+    k_sine: float | None = None  # sine diffusive coupling of angles (Schöner-Dose, eq. 4.45)
     lowpass: float | None = None  # position low-pass filter constant α (with m_d)
-    heading_spread: float = np.pi / 4  # [rad] largest |χ − ψ_i| the heading certificate covers
+    heading_spread: float = np.pi / 4  # [rad] largest |χ − ψ_i| (or coupled |ψ_i − ψ_j|) the sine certificates cover
     g: np.ndarray = field(default_factory=lambda: np.ones(1))  # speed profile samples over a cycle (> 0)
+    omega: float = 1.0  # [rad/s] lowest gait frequency (step-length rate)
     samples: int = 200  # state samples for the numerical certificates
     seed: int = 0
 
     def __post_init__(self):
-        for name in ("k", "alpha", "m_d", "m_z", "m_psi", "lowpass"):
+        for name in ("k", "alpha", "m_d", "m_z", "m_psi", "k_sine", "lowpass"):
             value = getattr(self, name)
             if value is not None and not np.isfinite(value):
                 raise ValueError(f"{name} = {value} must be finite")
         g = np.asarray(self.g, dtype=float)
         if g.ndim != 1 or not np.all(np.isfinite(g)) or np.any(g <= 0):
             raise ValueError("g (speed profile) must be a 1-D array of finite values > 0")
+        if not (np.isfinite(self.omega) and self.omega > 0):
+            raise ValueError(f"omega = {self.omega} rad/s must be > 0")
         if not 0 < self.heading_spread < np.pi / 2:
             raise ValueError(f"heading_spread = {self.heading_spread} must be in (0, π/2) rad")
 
@@ -112,7 +128,7 @@ def certify(cfg: CouplingConfig) -> list[Condition]:
     if cfg.m_d is not None:
         out.extend(_step_frequency(cfg, lam, method, g))
     if cfg.m_z is not None:
-        rate_z = cfg.m_z * g.min() * lam
+        rate_z = cfg.m_z * cfg.omega * g.min() * lam
         holds = cfg.m_z > 0 and (graph.topology == "all" or _strong_symmetric(graph, g))
         rho = min(rate_z, cfg.k * lam) if (cfg.k is not None and cfg.k > 0) else rate_z
         out.append(Condition("step_length", "m_z min g λ⁺ > 0" + (" and Theorem 6" if graph.topology != "all" else ""),
@@ -123,7 +139,33 @@ def certify(cfg: CouplingConfig) -> list[Condition]:
         out.append(Condition("heading_consensus", f"m_ψ > 0, |χ − ψ| ≤ {np.degrees(cfg.heading_spread):.0f}° < 90°",
                              cfg.m_psi > 0, rate, rate if cfg.m_psi > 0 else None,
                              "closed form (journal eq. 12), rate m_ψ cos Δ for unit gait frequency"))
+        out.append(Condition("heading_goal_region", "m_ψ > 0, |ψ − ψ_goal| < 180°", cfg.m_psi > 0, cfg.m_psi,
+                             cfg.m_psi if cfg.m_psi > 0 else None,
+                             "closed form (thesis 4.4.3), metric 1/(1 + cos(ψ − ψ_goal))"))
+    if cfg.k_sine is not None:
+        out.append(_schoener_dose(cfg, lam, method))
     return out
+
+
+def _schoener_dose(cfg: CouplingConfig, lam: float, method: str) -> Condition:
+    graph, k, spread = cfg.graph, cfg.k_sine, cfg.heading_spread
+    statement = f"k > 0, |ψ_i − ψ_j| ≤ {np.degrees(spread):.0f}° < 90° (eq. 4.45)"
+    if graph.symmetric:
+        rate = k * lam * float(np.cos(spread))
+        return Condition("schoener_dose", statement, rate > 0, rate, rate if rate > 0 else None,
+                         f"{method}; rate k λ⁺ cos Δ")
+    A = -graph.laplacian.copy()
+    np.fill_diagonal(A, 0.0)
+    V = complement_basis(graph.n)
+    rng = np.random.default_rng(cfg.seed)
+    worst = -np.inf
+    for _ in range(cfg.samples):
+        psi = rng.uniform(-spread / 2, spread / 2, graph.n)
+        W = A * np.cos(psi[:, None] - psi[None, :])
+        J = -k * (np.diag(W.sum(axis=1)) - W)
+        worst = max(worst, float(np.linalg.eigvalsh(V @ ((J + J.T) / 2) @ V.T)[-1]))
+    return Condition("schoener_dose", statement, worst < 0, -worst, -worst if worst < 0 else None,
+                     f"numerical: {cfg.samples} sampled angle sets, projected symmetrized Jacobian")
 
 
 def _lambda_plus(graph: CouplingGraph) -> tuple[float, str]:

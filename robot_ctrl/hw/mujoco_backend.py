@@ -1,46 +1,45 @@
 """MuJoCo simulation backend of the hardware interface, stepping the physics in lock-step.
 
-Each ``write()`` applies the servo command and advances the simulation by one control period
-(``control_dt / timestep`` physics steps). ``read()`` returns the state at the current time.
+Alone in its world, each ``write()`` applies the servo command and advances the simulation by one
+control period (``control_dt / timestep`` physics steps). In a world shared with other robots
+(:class:`~robot_ctrl.hw.mujoco_world.MujocoWorld`), ``write()`` only applies the command and the
+world steps once all robots have written. ``read()`` returns the state at the current time.
 The robot starts in its half-sitting posture with the lowest point of its feet on the floor.
 """
 
 from __future__ import annotations
 
-import time
-
 import mujoco
 import numpy as np
 
 from robot_ctrl.hw.adapter import HardwareAdapter
+from robot_ctrl.hw.mujoco_world import MujocoWorld
 from robot_ctrl.hw.types import JointCommand, JointState
 from robot_ctrl.robot.joint_map import MujocoJointMap, pin_to_mujoco_qpos
 from robot_ctrl.robot.model import RobotModel
 
 
 class MujocoBackend(HardwareAdapter):
-    """Simulated robot. ``base_xy_yaw`` places the robot's start pose in the world (m, m, rad)."""
+    """Simulated robot. ``base_xy_yaw`` places the robot's start pose in the world (m, m, rad).
+
+    Without ``world`` the robot gets a world of its own (its cached single-robot scene). With
+    ``world``, ``prefix`` names the robot's copy in that scene (``<prefix>/`` joints and bodies).
+    """
 
     def __init__(self, robot: RobotModel, control_dt: float = 0.005, base_xy_yaw=(0.0, 0.0, 0.0),
-                 viewer: bool = False):
+                 viewer: bool = False, world: MujocoWorld | None = None, prefix: str | None = None):
         super().__init__(robot.nj)
         self.robot = robot
-        self.m = mujoco.MjModel.from_xml_path(str(robot.mjcf_path))
-        self.d = mujoco.MjData(self.m)
-        self.n_substeps = round(control_dt / self.m.opt.timestep)
-        if self.n_substeps < 1 or abs(self.n_substeps * self.m.opt.timestep - control_dt) > 1e-9:
-            raise ValueError(f"control_dt = {control_dt} s must be a positive multiple of the physics step "
-                             f"{self.m.opt.timestep} s")
-        self.control_dt = control_dt
-        self.map = MujocoJointMap.build(self.m, robot.joint_names, f"{robot.name}/", robot.config.base_link)
+        self._owns_world = world is None
+        self.world = MujocoWorld(robot.mjcf_path, control_dt, viewer) if world is None else world
+        self.m, self.d = self.world.m, self.world.d
+        self.control_dt = self.world.control_dt
+        prefix = f"{robot.name if prefix is None else prefix}/"
+        self.map = MujocoJointMap.build(self.m, robot.joint_names, prefix, robot.config.base_link)
         self._start = np.asarray(base_xy_yaw, dtype=float)
-        self._want_viewer = viewer
-        self._viewer = None
-        self._wall0 = 0.0
-
-        prefix = self.map.prefix
-        floor = self.m.geom("floor").id
-        self._floor = floor
+        if not (self._start.shape == (3,) and np.all(np.isfinite(self._start))):
+            raise ValueError(f"base_xy_yaw must be 3 finite numbers (x [m], y [m], yaw [rad]), got {base_xy_yaw}")
+        self._floor = self.world.floor
         # A foot is every body welded to the link that carries the sole frame.
         self._sole_body = {}
         self._foot_weld = {}
@@ -59,10 +58,13 @@ class MujocoBackend(HardwareAdapter):
         self._acts = slice(int(self._act[0]), int(self._act[0]) + self.nj)  # views, not copies
         self._tau_demand = np.zeros(self.nj)
         self._force = np.zeros(6)
+        self._servo = None  # (kp, kd, kp q_des + kd dq_des + tau_ff) of the last command
+        self.world.on_substep(self._track_demand)
 
     # Lifecycle hooks --------------------------------------------------------------------------
     def _on_configure(self) -> None:
-        mujoco.mj_resetData(self.m, self.d)
+        if self._owns_world:
+            mujoco.mj_resetData(self.m, self.d)
         x, y, yaw = self._start
         q = self.robot.q_half_sitting.copy()
         q[:2] = x, y
@@ -75,20 +77,17 @@ class MujocoBackend(HardwareAdapter):
         self.d.ctrl[self._act] = self.d.qpos[self.map.qpos]
 
     def _on_activate(self) -> None:
-        if self._want_viewer and self._viewer is None:
-            import mujoco.viewer
-
-            self._viewer = mujoco.viewer.launch_passive(self.m, self.d)
-        self._wall0 = time.perf_counter() - self.d.time
+        if self._owns_world:
+            self.world.open_viewer()
 
     def _on_estop(self) -> None:
         # Damping mode: no stiffness, no feedforward, joint damping kept.
         self._apply_gains(np.zeros(self.nj), self.robot.kd, np.zeros(self.nj), np.zeros(self.nj))
+        self._servo = None
 
     def _on_close(self) -> None:
-        if self._viewer is not None:
-            self._viewer.close()
-            self._viewer = None
+        if self._owns_world:
+            self.world.close()
 
     # Read / write -----------------------------------------------------------------------------
     def _apply_gains(self, kp, kd, dq, tau_ff) -> None:
@@ -101,21 +100,20 @@ class MujocoBackend(HardwareAdapter):
     def _write(self, cmd: JointCommand) -> None:
         self._apply_gains(cmd.kp, cmd.kd, cmd.dq, cmd.tau_ff)
         self.d.ctrl[self._act] = cmd.q
-        # Unsaturated servo torque of each physics step, from the actuator length and velocity MuJoCo
-        # computed for that step: kp q_des + (kd dq_des + tau_ff) − kp q − kd dq.
+        self._servo = (cmd.kp, cmd.kd, cmd.kp * cmd.q + self.m.actuator_biasprm[self._acts, 0])
+        if self._owns_world:
+            self.world.step()
+
+    def _track_demand(self) -> None:
+        """Peak unsaturated servo torque since the last read, from the actuator length and velocity
+        MuJoCo computed for this physics step: kp q_des + (kd dq_des + tau_ff) − kp q − kd dq."""
+        if self._servo is None:
+            return
+        kp, kd, constant = self._servo
         acts = self._acts
-        constant = cmd.kp * cmd.q + self.m.actuator_biasprm[acts, 0]
-        length, velocity = self.d.actuator_length[acts], self.d.actuator_velocity[acts]
-        for _ in range(self.n_substeps):
-            mujoco.mj_step(self.m, self.d)
-            demand = constant - cmd.kp * length - cmd.kd * velocity
-            peak = np.abs(demand) > np.abs(self._tau_demand)
-            self._tau_demand[peak] = demand[peak]
-        if self._viewer is not None:
-            self._viewer.sync()
-            lag = self.d.time - (time.perf_counter() - self._wall0)
-            if lag > 0:  # pace the viewer at real time
-                time.sleep(lag)
+        demand = constant - kp * self.d.actuator_length[acts] - kd * self.d.actuator_velocity[acts]
+        peak = np.abs(demand) > np.abs(self._tau_demand)
+        self._tau_demand[peak] = demand[peak]
 
     def _read(self) -> JointState:
         m, d, mp = self.m, self.d, self.map

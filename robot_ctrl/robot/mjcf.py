@@ -87,17 +87,23 @@ def scene_spec(robots: dict[str, mujoco.MjSpec], timestep: float, scene: Path = 
 
 
 def cached_scene_mjcf(config: RobotConfig, files: RobotFiles, kp: np.ndarray, kd: np.ndarray,
-                      effort: np.ndarray, armature: np.ndarray) -> Path:
-    """Path of the cached single-robot scene MJCF, converting it first if the cache lacks it."""
+                      effort: np.ndarray, armature: np.ndarray, prefixes: tuple[str, ...] | None = None) -> Path:
+    """Path of the cached scene MJCF, converting it first if the cache lacks it. The scene holds one
+    copy of the robot per prefix (default: one, named after the robot)."""
+    prefixes = (config.name,) if prefixes is None else tuple(prefixes)
+    if not prefixes or len(set(prefixes)) != len(prefixes):
+        raise ValueError(f"prefixes {prefixes} must be non-empty and distinct")
     key = hashlib.sha256()
-    for part in (__version__, mujoco.__version__, example_robot_data_version(), repr(config),
+    for part in (__version__, mujoco.__version__, example_robot_data_version(), repr(config), repr(prefixes),
                  files.urdf.read_bytes(), files.srdf.read_bytes() if files.srdf else b"",
                  SCENE.read_bytes(), kp.tobytes(), kd.tobytes(), effort.tobytes(), armature.tobytes()):
         key.update(part if isinstance(part, bytes) else part.encode())
-    path = cache_dir() / f"{config.name}-{key.hexdigest()[:16]}.xml"
+    name = config.name if len(prefixes) == 1 else f"{config.name}x{len(prefixes)}"
+    path = cache_dir() / f"{name}-{key.hexdigest()[:16]}.xml"
     if path.is_file():
         return path
-    spec = scene_spec({config.name: robot_spec(config, files, kp, kd, effort, armature)}, config.timestep)
+    spec = scene_spec({prefix: robot_spec(config, files, kp, kd, effort, armature) for prefix in prefixes},
+                      config.timestep)
     spec.compile()
     path.parent.mkdir(parents=True, exist_ok=True)
     # Write to a temporary file and rename, so a concurrent or interrupted run never sees half a file.

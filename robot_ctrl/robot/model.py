@@ -58,6 +58,10 @@ class RobotModel:
         """The cached MuJoCo scene of this robot on the floor (converted on first use)."""
         return cached_scene_mjcf(self.config, self.files, self.kp, self.kd, self.effort, self.armature)
 
+    def group_mjcf_path(self, prefixes: tuple[str, ...]) -> Path:
+        """A cached MuJoCo scene with one copy of this robot per name prefix (``<prefix>/``)."""
+        return cached_scene_mjcf(self.config, self.files, self.kp, self.kd, self.effort, self.armature, prefixes)
+
     def joints_from_q(self, q: np.ndarray) -> np.ndarray:
         """Joint angles in the robot's joint order from a Pinocchio configuration."""
         return q[self.q_index]

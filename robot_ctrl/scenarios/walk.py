@@ -66,7 +66,7 @@ def run_walk(robot: RobotModel, hw: HardwareAdapter, goal: WalkGoal, params: Wal
     try:
         while True:
             t = k * control_dt
-            if k % controller.ticks_per_sample == 0:
+            if controller.sample_due:
                 planned_base = np.array([*(np.array([wpg.com_x[0], wpg.com_y[0]])
                                            - rotation(wpg.heading) @ com_offset), wpg.heading])
                 was_done = follower.done

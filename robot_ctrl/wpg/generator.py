@@ -9,10 +9,15 @@ reference moving to the middle of the feet. :meth:`stop_at` instead places those
 footsteps at given positions, taking as many steps as the reach region requires (stopping at a
 goal pose).
 
-Every ``sample_time`` :meth:`update` solves the MPC from the generator's own planned CoM state
+Every sample :meth:`update` solves the MPC from the generator's own planned CoM state
 (the plan is open loop; balance feedback acts on the controller side) and advances the plan by
 one sample. :meth:`sample` interpolates it at any time inside the current sample.
 All positions are in the world frame; the floor is z = 0.
+
+Gait timing can be stretched online: with :meth:`set_time_scale` ``s``, every gait duration of
+``WalkParams`` (samples, single and double support) lasts ``s`` times its nominal value from the
+next sample on. The gait state machine counts *nominal* time; the LIP, the velocity reference and
+the clock use physical time. This is how a crowd coupling sets the step period (``crowd.gait_bridge``).
 """
 
 from __future__ import annotations
@@ -91,8 +96,11 @@ class WalkingPatternGenerator:
         self.solution: MpcSolution | None = None
         self.touchdowns: list[Touchdown] = []
         self.solve_times: list[float] = []
+        self._last_duration = params.sample_time
+        self.time_scale = 1.0  # physical / nominal duration of the gait, for the next samples
+        self.steps_started = 0  # single-support phases begun so far
         self._sample_state = (self.com_x.copy(), self.com_y.copy(), 0.0, 0.0)
-        self._sample_phase = (self.phase, 0.0, self.stance, None)
+        self._sample_phase = (self.phase, 0.0, self.stance, None, 1.0, 0)
 
     # Reference --------------------------------------------------------------------------------
     def set_velocity(self, vx: float, vy: float, wz: float) -> None:
@@ -112,6 +120,23 @@ class WalkingPatternGenerator:
             self.steps_to_stop = 0
             self.stop_feet = None
         self.velocity = v
+
+    def set_time_scale(self, scale: float) -> None:
+        """Stretch the gait: from the next sample on, each sample and support phase lasts ``scale``
+        times its nominal duration (step period ``scale · step_period``)."""
+        if not (np.isfinite(scale) and 0.5 <= scale <= 2.0):
+            raise ValueError(f"time_scale = {scale} is outside the allowed range [0.5, 2.0]")
+        self.time_scale = float(scale)
+
+    @property
+    def sample_duration(self) -> float:
+        """Physical duration [s] of the next sample."""
+        return self.p.sample_time * self.time_scale
+
+    @property
+    def sample_start(self) -> float:
+        """Start time [s] of the last solved sample (the one :meth:`sample` interpolates)."""
+        return self.t - self._last_duration
 
     def stop_at(self, left: Footstep, right: Footstep) -> None:
         """Stop with the feet at these footsteps: each next landing goes to its foot's stop footstep,
@@ -161,7 +186,7 @@ class WalkingPatternGenerator:
         index = 0
         while t_land < horizon and index < 2:
             side = other(previous.side)
-            heading = self.heading + self.velocity[2] * t_land
+            heading = self.heading + self.velocity[2] * t_land * self.time_scale
             yaw = previous.yaw + np.clip(wrap_angle(heading - previous.yaw), -p.max_yaw_step, p.max_yaw_step)
             if self.stop_feet is not None:
                 fixed = FootRef.known(self._toward_goal(previous, side))
@@ -205,7 +230,7 @@ class WalkingPatternGenerator:
         polygons: dict[tuple[int, bool], tuple] = {}  # (segment, second half) -> (H, h, anchor)
         velocity = np.zeros((p.horizon, 2))
         for j in range(p.horizon):
-            t = (j + 1) * p.sample_time
+            t = (j + 1) * p.sample_time  # nominal
             start = 0.0
             for seg in segments:
                 if t <= start + seg.duration + 1e-9 or seg is segments[-1]:
@@ -218,7 +243,7 @@ class WalkingPatternGenerator:
                 polygons[key] = _polygon(seg, s, half)
             zmp_ref = seg.zmp_from if seg.zmp_to is None else _blend(seg.zmp_from, seg.zmp_to, s)
             supports.append(SampleSupport(*polygons[key], zmp_ref))
-            heading = self.heading + self.velocity[2] * t
+            heading = self.heading + self.velocity[2] * t * self.time_scale
             velocity[j] = rotation(heading) @ self.velocity[:2]
         stance = FootRef.known(self.feet[self.stance])
         reach, fixed = [], {}
@@ -233,13 +258,15 @@ class WalkingPatternGenerator:
             # comes back to step_width.
             sign = 1.0 if foot.side == "left" else -1.0
             vx, vy = self.velocity[:2]
-            lateral = sign * p.step_width + (2.0 * vy * p.step_period if sign * vy > 0 else 0.0)
-            step = rotation(foot.yaw) @ np.array([vx * p.step_period, lateral])
+            period = p.step_period * self.time_scale
+            lateral = sign * p.step_width + (2.0 * vy * period if sign * vy > 0 else 0.0)
+            step = rotation(foot.yaw) @ np.array([vx * period, lateral])
             nominal[2 * index : 2 * index + 2] = previous.position(nominal) + step
             previous = foot
         for index in range(len(landings), 2):  # footsteps beyond the horizon: kept at the stance foot
             nominal[2 * index : 2 * index + 2] = stance.offset
-        return MpcProblem(self.com_x.copy(), self.com_y.copy(), velocity, supports, reach, fixed, nominal)
+        return MpcProblem(self.com_x.copy(), self.com_y.copy(), velocity, supports, reach, fixed, nominal,
+                          self.sample_duration)
 
     def _reach_box(self, side: str) -> tuple[float, float, float, float]:
         w, (lo, hi) = self.p.step_width, self.p.reach_y
@@ -264,16 +291,17 @@ class WalkingPatternGenerator:
         if self.phase == "single" and self.phase_time < self.p.single_support - self.p.swing_freeze - 1e-9:
             self.swing.retarget(self.phase_time, Footstep(other(self.stance), *sol.footsteps[:2], self._landing_yaws[0]))
         self._sample_state = (self.com_x.copy(), self.com_y.copy(), float(sol.jerk_x[0]), float(sol.jerk_y[0]))
-        T = self.p.sample_time
-        self._sample_phase = (self.phase, self.phase_time, self.stance, self.swing)
+        T = self._last_duration = self.sample_duration
+        self._sample_phase = (self.phase, self.phase_time, self.stance, self.swing, self.time_scale, self.steps_started)
         self.com_x = com_at(self.com_x, sol.jerk_x[0], T)
         self.com_y = com_at(self.com_y, sol.jerk_y[0], T)
         self.heading += self.velocity[2] * T
-        self._advance(T)
         self.t += T
+        self._advance(self.p.sample_time)
         return sol
 
     def _advance(self, T: float) -> None:
+        """Advance the gait state machine by ``T`` nominal seconds (``self.t`` is already the new time)."""
         p = self.p
         self.phase_time += T
         if self.phase == "transfer" and self.phase_time >= p.start_transfer - 1e-9:
@@ -281,7 +309,7 @@ class WalkingPatternGenerator:
         elif self.phase == "single" and self.phase_time >= p.single_support - 1e-9:
             landed = self.swing.landing
             self.feet[landed.side] = landed
-            self.touchdowns.append(Touchdown(self.t + T, landed))
+            self.touchdowns.append(Touchdown(self.t, landed))
             self.stance = landed.side
             if self.stop_feet is not None:
                 done = all(self._at_goal(FootRef.known(f)) for f in self.feet.values())
@@ -302,26 +330,38 @@ class WalkingPatternGenerator:
     def _start_single(self) -> None:
         swing = other(self.stance)
         self.phase, self.phase_time = "single", 0.0
+        self.steps_started += 1
         self.swing = SwingTrajectory(self.feet[swing], self.p.single_support, self.p.swing_apex)
 
     # Sampling ---------------------------------------------------------------------------------
+    def gait_phase(self, tau: float) -> float | None:
+        """Gait phase [rad] ``tau`` physical seconds after the start of the last solved sample: π per
+        step, counted from the start of the first single support (2π per gait cycle of two steps);
+        None before the first step."""
+        phase, phase_time, _, _, scale, steps = self._sample_phase
+        if steps == 0 or phase not in ("single", "double"):
+            return None
+        elapsed = phase_time + tau / scale + (self.p.single_support if phase == "double" else 0.0)
+        return np.pi * (steps - 1 + elapsed / self.p.step_period)
+
     def sample(self, tau: float) -> WalkReference:
-        """The plan ``tau`` seconds (0 ≤ tau ≤ sample_time) after the start of the last solved sample."""
+        """The plan ``tau`` physical seconds (0 ≤ tau ≤ sample duration) after the start of the last
+        solved sample."""
         cx, cy, jx, jy = self._sample_state
         sx, sy = com_at(cx, jx, tau), com_at(cy, jy, tau)
         h_g = self.p.com_height / 9.81
-        phase, phase_time, stance, swing = self._sample_phase
+        phase, phase_time, stance, swing, scale, _ = self._sample_phase
         positions, yaws, velocities, contact = {}, {}, {}, {}
         for side in ("left", "right"):
             if phase == "single" and side != stance:
-                pos, yaw, vel, wz = swing.at(phase_time + tau)
-                positions[side], yaws[side], velocities[side], contact[side] = pos, yaw, (vel, wz), False
+                pos, yaw, vel, wz = swing.at(phase_time + tau / scale)  # the swing runs on nominal time
+                positions[side], yaws[side], velocities[side], contact[side] = pos, yaw, (vel / scale, wz / scale), False
             else:
                 step = self.feet[side]
                 positions[side] = np.array([step.x, step.y, 0.0])
                 yaws[side], velocities[side], contact[side] = step.yaw, (np.zeros(3), 0.0), True
         return WalkReference(
-            t=self.t - self.p.sample_time + tau,
+            t=self.sample_start + tau,
             com=np.array([sx[0], sy[0]]), com_velocity=np.array([sx[1], sy[1]]),
             com_acceleration=np.array([sx[2], sy[2]]),
             zmp=np.array([sx[0] - h_g * sx[2], sy[0] - h_g * sy[2]]),

@@ -44,13 +44,15 @@ def horizon_matrices(T: float, N: int, com_height: float, g: float = GRAVITY) ->
     A, B = transition(T)
     zmp_row = np.array([1.0, 0.0, -com_height / g])
     S = np.zeros((N, 3, 3))  # A^j, j = 1..N
-    U = np.zeros((N, N, 3))  # contribution of u_i to the state at sample j
+    U = np.zeros((N, N, 3))  # contribution of u_i to the state at sample j: A^(j−i) B
+    AkB = np.zeros((N, 3))  # A^k B, k = 0..N−1
     power = np.eye(3)
     for j in range(N):
+        AkB[j] = power @ B
         power = A @ power
         S[j] = power
-        for i in range(j + 1):
-            U[j, i] = np.linalg.matrix_power(A, j - i) @ B
+    for j in range(N):
+        U[j, : j + 1] = AkB[j::-1]
     return HorizonMatrices(
         Pps=S[:, 0, :], Ppu=U[:, :, 0], Pvs=S[:, 1, :], Pvu=U[:, :, 1],
         Pzs=np.einsum("k,jkl->jl", zmp_row, S), Pzu=U @ zmp_row,
