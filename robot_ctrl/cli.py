@@ -73,7 +73,8 @@ def _crowd_certify(args: argparse.Namespace) -> int:
     g = np.loadtxt(args.g_profile, ndmin=1) if args.g_profile else np.ones(1)
     try:
         cfg = CouplingConfig(_crowd_graph(args), k=args.k, alpha=args.alpha, m_d=args.md, m_z=args.mz,
-                             m_psi=args.mpsi, lowpass=args.lowpass, g=g)
+                             m_psi=args.mpsi, k_sine=args.ksine, lowpass=args.lowpass, g=g,
+                             heading_spread=np.radians(args.spread_deg))
     except ValueError as exc:
         raise ConfigError(f"crowd certify: {exc}") from exc
     conditions = certify(cfg)
@@ -89,22 +90,43 @@ def _crowd_certify(args: argparse.Namespace) -> int:
 
 
 def _crowd_run(args: argparse.Namespace) -> int:
+    import numpy as np
+
     from robot_ctrl.crowd.experiments import run_group
+    from robot_ctrl.crowd.gait_coupling import GaitCoupling
+    from robot_ctrl.crowd.gait_profile import GaitProfile
     from robot_ctrl.eval.report_file import write_report
 
     graph = _crowd_graph(args)
-    result = run_group(graph, args.k, duration=args.duration, runs=args.runs)
-    violated = [c.name for c in result.conditions if not c.holds and c.name in ("hopf_diffusive", "connectivity")]
+    omega = 2 * np.pi * args.frequency
+    try:
+        coupling = GaitCoupling(graph, k=args.k, m_d=args.md or 0.0, m_z=args.mz or 0.0, m_psi=args.mpsi or 0.0)
+        profile = GaitProfile.load_or_constant(args.profile, omega, args.speed) if args.profile else None
+        if args.profile and profile.source.startswith("constant"):
+            raise ValueError(f"no measured gait profile for {args.profile!r}: run robot-ctrl crowd gait-profile "
+                             f"--robot {args.profile}")
+        conditions = coupling.certify(np.ones(1) if profile is None else profile.g, omega, phases="hopf")
+    except ValueError as exc:
+        raise ConfigError(f"crowd run: {exc}") from exc
+    violated = [c.name for c in conditions if not c.holds]
     if violated and not args.allow_unstable:
         raise ConfigError(f"crowd run: the contraction condition(s) {', '.join(violated)} are violated for this "
                           "configuration; pass --allow-unstable to simulate it anyway")
     if violated:
         print(f"running an uncertified configuration ({', '.join(violated)} violated): convergence is not guaranteed")
+    result = run_group(coupling, duration=args.duration, runs=args.runs, profile=profile, omega=omega)
     for c in result.conditions:
         print(c.line())
-    print(f"empirical rate {result.empirical_rate} 1/s, final phase spread {result.final_spread:.3g} rad")
+    print(f"empirical phase rate {result.empirical_rate} 1/s, final phase spread {result.final_spread:.3g} rad")
+    if result.position_error is not None:
+        print(f"empirical position rate {result.position_rate} 1/s, final position error "
+              f"{result.position_error[-1]:.3g} m")
+    if result.heading_error is not None:
+        print(f"empirical heading rate {result.heading_rate} 1/s, final heading error {result.heading_error[-1]:.3g} rad")
     report = result.report()
-    report.update(graph=graph.topology or "from file", n=graph.n, k=args.k, duration_s=args.duration, runs=args.runs)
+    report.update(graph=graph.topology or "from file", n=graph.n, k=args.k, m_d=args.md, m_z=args.mz, m_psi=args.mpsi,
+                  gait_frequency_hz=args.frequency, gait_profile=None if profile is None else profile.source,
+                  duration_s=args.duration, runs=args.runs)
     write_report(report, args.out)
     if args.out is not None:
         _plot_dispersion(result, args.out / "dispersion.png", f"{graph.topology or 'graph'} N={graph.n} k={args.k}")
@@ -120,6 +142,10 @@ def _plot_dispersion(result, path: Path, title: str) -> None:
 
     fig, ax = plt.subplots(figsize=(6, 4))
     ax.semilogy(result.times, result.dispersion, label="mean angular dispersion R̂")
+    if result.position_error is not None:
+        ax.semilogy(result.times, result.position_error, label="position error ‖z − o − mean‖ [m]")
+    if result.heading_error is not None:
+        ax.semilogy(result.times, result.heading_error, label="heading error ‖ψ − mean‖ [rad]")
     rate = next((c.rate for c in result.conditions if c.name == "hopf_diffusive"), None)
     if rate is not None:
         ax.semilogy(result.times, result.dispersion[0] * np.exp(-rate * result.times), "--",
@@ -264,6 +290,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--md", type=float, help="step-frequency (distance) coupling m_d")
     p.add_argument("--mz", type=float, help="step-length coupling m_z")
     p.add_argument("--mpsi", type=float, help="heading coupling m_psi")
+    p.add_argument("--ksine", type=float, help="sine (Schoener-Dose) coupling of headings or phases, eq. 4.45")
+    p.add_argument("--spread-deg", type=float, default=45.0,
+                   help="largest angle difference the heading / sine certificates cover [deg], < 90")
     p.add_argument("--lowpass", type=float, help="position low-pass filter constant (with --md)")
     p.add_argument("--g-profile", type=Path, help="speed profile g(phi) samples over a cycle (text file)")
     p.add_argument("--json", action="store_true", help="machine-readable output")
@@ -273,7 +302,13 @@ def build_parser() -> argparse.ArgumentParser:
                              description="Simulates the group from random initial states, writes DIR/report.json "
                                          "(certificate, empirical rate, final phase spread) and DIR/dispersion.png.")
     graph_args(p)
-    p.add_argument("--k", type=float, required=True, help="coupling strength")
+    p.add_argument("--k", type=float, required=True, help="phase (oscillator state) coupling strength [1/s]")
+    p.add_argument("--md", type=float, help="step-frequency coupling m_d [rad/(s m)]")
+    p.add_argument("--mz", type=float, help="step-length coupling m_z [1/m]")
+    p.add_argument("--mpsi", type=float, help="heading consensus m_psi [1/s]")
+    p.add_argument("--frequency", type=float, default=1.0, help="gait frequency [Hz] (one cycle = two steps)")
+    p.add_argument("--profile", help="use the measured gait profile g(phi) of this robot (e.g. talos)")
+    p.add_argument("--speed", type=float, default=1.0, help="mean walking speed with --profile [m/s]")
     p.add_argument("--duration", type=float, default=30.0, help="simulated time [s]")
     p.add_argument("--runs", type=int, default=100, help="random initial conditions averaged")
     p.add_argument("--allow-unstable", action="store_true", help="simulate even if the certificate is violated")

@@ -9,6 +9,7 @@ from robot_ctrl.cli import main
 from robot_ctrl.crowd.certificates import CouplingConfig, certify
 from robot_ctrl.crowd.coupling_graph import TOPOLOGIES, CouplingGraph
 from robot_ctrl.crowd.experiments import run_group
+from robot_ctrl.crowd.gait_coupling import GaitCoupling
 
 
 @pytest.mark.parametrize("topology", TOPOLOGIES)
@@ -67,7 +68,7 @@ def test_empirical_rate_beats_the_certificate_and_the_slope_matches(topology, n)
     graph = CouplingGraph.named(topology, n)
     lam = graph.closed_form_lambda_plus()
     ks = [1.2 / lam, 2.0 / lam]
-    runs = [run_group(graph, k, duration=15.0, runs=10) for k in ks]
+    runs = [run_group(GaitCoupling(graph, k=k), duration=15.0, runs=10) for k in ks]
     for k, result in zip(ks, runs):
         certified = by_name(result.conditions)["hopf_diffusive"].rate
         assert result.empirical_rate >= certified
@@ -76,7 +77,7 @@ def test_empirical_rate_beats_the_certificate_and_the_slope_matches(topology, n)
 
 
 def test_negative_coupling_does_not_converge():
-    result = run_group(CouplingGraph.named("all", 5), -0.3, duration=10.0, runs=10)
+    result = run_group(GaitCoupling(CouplingGraph.named("all", 5), k=-0.3), duration=10.0, runs=10)
     assert result.empirical_rate is None and result.dispersion[-1] > 0.3
 
 
@@ -111,8 +112,6 @@ def test_schoener_dose_region_and_rate():
 
 def test_sine_headings_converge_at_the_certified_rate():
     """Eq. 4.45 integrated from headings inside ±30°: the spread decays at least as fast as certified."""
-    from robot_ctrl.crowd.gait_coupling import GaitCoupling
-
     graph = CouplingGraph.named("chain", 4)
     law = GaitCoupling(graph, k=0.6)
     rate = by_name(law.certify(np.ones(4), 1.0, spread=np.radians(60)))["schoener_dose"].rate
@@ -141,10 +140,34 @@ def test_gait_bridge_maps_frequency_and_step_length():
 
 
 def test_phase_coupling_matches_the_linear_law_near_synchrony():
-    from robot_ctrl.crowd.gait_coupling import GaitCoupling
-
     graph = CouplingGraph.named("star", 4)
     law = GaitCoupling(graph, k=0.5)
     phases = np.array([0.01, -0.02, 0.015, 0.0]) + 2 * np.pi * np.array([0, 1, 3, -2])  # whole cycles apart
     linear = 1.0 - 0.5 * graph.laplacian @ np.array([0.01, -0.02, 0.015, 0.0])
     np.testing.assert_allclose(law.phase_rates(phases, np.zeros(4), 1.0), linear, atol=1e-5)
+
+
+def test_step_length_and_heading_control_converge_no_slower_than_certified():
+    """Scenario 3 + heading consensus with the gait profile measured on Talos (min g / mean g ≈ 0.67)."""
+    from robot_ctrl.crowd.gait_profile import GaitProfile
+
+    omega = 2 * np.pi
+    profile = GaitProfile.load_or_constant("talos", omega, 1.0)
+    assert profile.source.startswith("measured")
+    law = GaitCoupling(CouplingGraph.named("all", 8), k=0.5, m_z=0.3, m_psi=0.5)
+    result = run_group(law, duration=15.0, runs=10, profile=profile, omega=omega)
+    conds = by_name(result.conditions)
+    assert result.final_spread < 1e-6
+    assert result.position_rate >= conds["step_length"].margin  # ρ_z = m_z ω min g λ⁺
+    assert result.heading_rate >= conds["heading_consensus"].rate
+    assert result.position_error[-1] < 1e-6 * result.position_error[0]
+
+
+def test_step_frequency_control_rate_is_tight_for_a_constant_profile_and_diverges_for_negative_gain():
+    graph = CouplingGraph.named("all", 6)
+    result = run_group(GaitCoupling(graph, m_d=0.5), duration=15.0, runs=10)
+    certified = by_name(result.conditions)["step_frequency"].rate  # m_d min g λ⁺, g = 1/ω
+    assert result.position_rate == pytest.approx(certified, rel=0.02)
+    unstable = run_group(GaitCoupling(graph, m_d=-0.5), duration=5.0, runs=10)
+    assert not by_name(unstable.conditions)["step_frequency"].holds
+    assert unstable.position_error[-1] > 10 * unstable.position_error[0]

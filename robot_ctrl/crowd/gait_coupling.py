@@ -90,15 +90,19 @@ class GaitCoupling:
         """``ψ̇_i`` [rad/s] of the heading consensus (eq. 4.33)."""
         return self.m_psi * np.sin(circular_mean(headings)[..., None] - headings)
 
-    def certify(self, g: np.ndarray, omega: float, spread: float = np.pi / 4) -> list[Condition]:
-        """The conditions that apply to these laws: ``phase_coupling`` (the linearization at synchrony,
-        rate k λ⁺), ``schoener_dose`` (the sine coupling inside a phase spread ``spread``), and the
-        step-frequency, step-length and heading conditions of the active gains. ``g`` = dz/dφ over a
-        cycle [m/rad], ``omega`` the lowest gait frequency [rad/s]."""
+    def certify(self, g: np.ndarray, omega: float, spread: float = np.pi / 4, phases: str = "sine") -> list[Condition]:
+        """The conditions that apply to these laws, with ``g`` = dz/dφ over a cycle [m/rad] and
+        ``omega`` the lowest gait frequency [rad/s]. ``phases`` says how the step phases are coupled:
+        ``"sine"`` (these laws: ``phase_coupling``, the linearization at synchrony with rate k λ⁺, and
+        ``schoener_dose``, the sine coupling inside a phase spread ``spread``) or ``"hopf"``
+        (oscillators coupled through their (x, y) state: ``hopf_diffusive`` and ``phase_coupling``)."""
+        if phases not in ("sine", "hopf"):
+            raise ValueError(f"phases = {phases!r} must be 'sine' or 'hopf'")
+
         def active(v):
             return v if v else None
-        cfg = CouplingConfig(self.graph, k=active(self.k), k_sine=active(self.k), m_d=active(self.m_d),
-                             m_z=active(self.m_z), m_psi=active(self.m_psi), g=np.asarray(g, dtype=float),
-                             omega=omega, heading_spread=spread)
-        # hopf_diffusive is for oscillators coupled through their (x, y) state; these laws couple phases.
-        return [c for c in certify(cfg) if c.name != "hopf_diffusive"]
+        cfg = CouplingConfig(self.graph, k=active(self.k), k_sine=active(self.k) if phases == "sine" else None,
+                             m_d=active(self.m_d), m_z=active(self.m_z), m_psi=active(self.m_psi),
+                             g=np.asarray(g, dtype=float), omega=omega, heading_spread=spread)
+        conditions = certify(cfg)
+        return [c for c in conditions if c.name != "hopf_diffusive"] if phases == "sine" else conditions
