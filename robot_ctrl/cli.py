@@ -18,13 +18,14 @@ def _check_viewer(args: argparse.Namespace) -> None:
 
 
 def _balance(args: argparse.Namespace) -> int:
-    from robot_ctrl.hw.mujoco_backend import MujocoBackend
+    from robot_ctrl.hw.hardware import open_hardware
     from robot_ctrl.robot.model import load_robot
     from robot_ctrl.scenarios.balance import run_balance
 
     _check_viewer(args)
     robot = load_robot(args.robot)
-    report = run_balance(robot, MujocoBackend(robot, viewer=args.viewer), out_dir=args.out)
+    with open_hardware(args.hw, robot, args.bus_config, viewer=args.viewer) as hw:
+        report = run_balance(robot, hw, out_dir=args.out)
     return 1 if report["fell"] else 0
 
 
@@ -254,6 +255,9 @@ def build_parser() -> argparse.ArgumentParser:
                                    "right foot up 5 cm and back, CoM back, right-hand reach to (0.4, -0.2, 0.8) m in "
                                    "the start floor frame and back. Exit status 1 if the robot fell.")
     p.add_argument("--robot", default="talos", help=f"robot config name ({', '.join(available_robots())})")
+    p.add_argument("--hw", choices=("mujoco", "mit-can-emulated", "dynamixel-emulated"), default="mujoco",
+                   help="backend: MuJoCo, or MuJoCo behind an emulated MIT-CAN / Dynamixel bus with the safety layer")
+    p.add_argument("--bus-config", help="bus mapping (configs/hw name or YAML path) for the emulated buses")
     p.add_argument("--viewer", action="store_true", help="open the MuJoCo viewer (needs a display)")
     p.add_argument("--out", type=Path, help="write DIR/report.json")
     p.set_defaults(run=_balance)

@@ -4,6 +4,7 @@ Lifecycle (after ros2_control)::
 
     UNCONFIGURED --configure--> INACTIVE --activate--> ACTIVE --deactivate--> INACTIVE
     any state --estop--> ESTOP (latched)        a backend failure --> FAULT
+    ESTOP or FAULT --reset--> INACTIVE (explicit; activate again to move)
     any state --close--> closed (no further calls)
 
 ``read()`` works once configured; ``write()`` only while ACTIVE. Commands are validated here,
@@ -62,6 +63,12 @@ class HardwareAdapter(ABC):
         self._on_estop()
         self._state = S.ESTOP
 
+    def reset(self) -> None:
+        """Clear a latched e-stop or a fault: the backend goes back to INACTIVE (servos still safe)."""
+        self._require("reset", S.ESTOP, S.FAULT)
+        self._guarded(self._on_reset)
+        self._state = S.INACTIVE
+
     def close(self) -> None:
         if not self._closed:
             self._on_close()
@@ -95,6 +102,9 @@ class HardwareAdapter(ABC):
 
     @abstractmethod
     def _on_estop(self) -> None: ...
+
+    def _on_reset(self) -> None:
+        pass
 
     def _on_close(self) -> None:
         pass

@@ -42,6 +42,7 @@ class JointState:
     - ``tau_demand``: per joint, the signed servo torque of largest magnitude demanded *before*
       saturation since the last read [N·m] (simulation backends; shows a saturating servo).
     - ``floor_contacts``: names of bodies other than the feet that touch the floor (simulation).
+    - ``temperature``: per joint, the servo's reported temperature [°C] (bus backends).
     """
 
     t: float
@@ -56,6 +57,7 @@ class JointState:
     foot_wrench: dict[str, np.ndarray] | None = None
     tau_demand: np.ndarray | None = None
     floor_contacts: tuple[str, ...] = field(default=())
+    temperature: np.ndarray | None = None
 
 
 @dataclass(frozen=True)

@@ -22,6 +22,7 @@ from robot_ctrl.control.static_feedforward import static_torques, weight_shares
 from robot_ctrl.eval import FallCriterion, RunMetrics
 from robot_ctrl.eval.report_file import write_report
 from robot_ctrl.hw.adapter import HardwareAdapter
+from robot_ctrl.hw.safety import SafetyLayer
 from robot_ctrl.hw.types import JointCommand
 from robot_ctrl.robot.model import RobotModel, configuration
 from robot_ctrl.scenarios.minimum_jerk import interpolate
@@ -168,6 +169,9 @@ def run_balance(robot: RobotModel, hw: HardwareAdapter, params: BalanceParams = 
         wall = time.perf_counter() - wall0
         hw.close()
     report = metrics.report()
+    if isinstance(hw, SafetyLayer):
+        report["safety"] = hw.report()
+        log(f"safety layer: {report['safety']}")
     report.update(
         robot=robot.name,
         hand_error_m=hand_error,

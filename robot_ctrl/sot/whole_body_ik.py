@@ -26,11 +26,19 @@ from robot_ctrl.sot.solver import HierarchicalQP
 SIDES = ("left", "right")
 
 
+#: A measured start configuration this close outside the URDF limits (encoder quantization,
+#: calibration) is clamped into them; farther out, the IK refuses it (``LimitViolation``).
+START_TOLERANCE = 0.01  # [rad]
+
+
 class WholeBodyIK:
     def __init__(self, robot: RobotModel, q0: np.ndarray, gain: float = 40.0, posture_weight: float = 0.03):
         self.robot = robot
         self.data = robot.pin.createData()
         self.q = np.array(q0, dtype=float)
+        joints = self.q[robot.q_index]
+        near = (joints > robot.lower - START_TOLERANCE) & (joints < robot.upper + START_TOLERANCE)
+        self.q[robot.q_index] = np.where(near, np.clip(joints, robot.lower, robot.upper), joints)
         self._stale = True
         ids = robot.frame_ids
         self.feet = {s: FrameTask(f"{s}_foot", ids[f"{s}_foot"], gain=gain) for s in SIDES}

@@ -1,0 +1,170 @@
+"""DynamixelBackend: joints driven by Dynamixel servos (Protocol 2.0, X-series control table)
+through ``dynamixel_sdk``.
+
+Per tick: a Sync Write of Goal Position to every servo, a Sync Write of the position D/I/P gains
+when they changed, and one Sync Read of present current, velocity, position and temperature.
+``activate`` clears and arms each servo's Bus Watchdog (``watchdog_ms``) and enables torque;
+``deactivate`` disables torque; ``estop`` writes P = 0 and D = ``kd_damping`` (damping mode).
+
+A Dynamixel takes a position goal and gains, not a velocity or torque feedforward. The servo law
+``kp (q_d − q) + kd (dq_d − dq) + τ_ff`` is kept exactly by folding the feedforward into the goal:
+``goal = q_d + (τ_ff + kd dq_d) / kp`` (with kp as quantized by the gain register), the usual way to
+drive a position-only servo with gravity compensation. Register units per model come from the
+bus YAML (``units_per_rev``, ``velocity_unit`` [rad/s], ``current_unit`` [A], ``torque_constant``
+[N·m/A], ``kp_unit`` [N·m/rad], ``kd_unit`` [N·m·s/rad]); on a real servo kp_unit and kd_unit must be
+calibrated, the control table's gains are not in SI units.
+
+Body sensors (base pose, IMU, foot forces) come from ``body_sensors`` as for the CAN backend. A
+failed Sync Read keeps the previous values and timestamp (``missing_replies`` counts it): the
+safety layer then sees a stale state.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Callable
+
+import dynamixel_sdk as sdk
+import numpy as np
+
+from robot_ctrl.hw import dynamixel_protocol as dxl
+from robot_ctrl.hw.adapter import HardwareAdapter
+from robot_ctrl.hw.bus_config import BusConfig
+from robot_ctrl.hw.types import JointCommand, JointState
+
+
+class DynamixelBackend(HardwareAdapter):
+    def __init__(self, config: BusConfig, kd_damping: np.ndarray, body_sensors: Callable[[], JointState] | None = None,
+                 watchdog_ms: float = 100.0, clock: Callable[[], float] = time.monotonic):
+        if config.backend != "dynamixel":
+            raise ValueError(f"{config.path.name} is a {config.backend!r} config, not dynamixel")
+        if not 20.0 <= watchdog_ms <= 127 * 20.0:
+            raise ValueError(f"watchdog_ms = {watchdog_ms} is outside the allowed range [20, 2540] ms")
+        super().__init__(len(config.motors))
+        self.config = config
+        self.kd_damping = np.asarray(kd_damping, dtype=float)
+        self.body_sensors = body_sensors
+        self.watchdog_units = int(round(watchdog_ms / 20.0))
+        self.clock = clock
+        self.ids = [m.id for m in config.motors]
+        models = [config.models[m.model] for m in config.motors]
+        self._rad_per_unit = np.array([2 * math.pi / m["units_per_rev"] for m in models])
+        self._velocity_unit = np.array([m["velocity_unit"] for m in models])
+        self._torque_per_unit = np.array([m["current_unit"] * m["torque_constant"] for m in models])
+        self._kp_unit = np.array([m["kp_unit"] for m in models])
+        self._kd_unit = np.array([m["kd_unit"] for m in models])
+        self._p = np.zeros(self.nj)  # motor side
+        self._v = np.zeros(self.nj)
+        self._t = np.zeros(self.nj)
+        self._temperature = np.zeros(self.nj)
+        self._gains: tuple | None = None
+        self._time = None
+        self._body: JointState | None = None
+        self.missing_replies = 0
+        self._port = None
+
+    # Lifecycle hooks ------------------------------------------------------------------------------
+    def _on_configure(self) -> None:
+        port = self.config.buses["port"]
+        self._port = sdk.PortHandler(port["device"])
+        if not self._port.openPort():
+            raise OSError(f"cannot open the Dynamixel port {port['device']}")
+        if not self._port.setBaudRate(int(port["baudrate"])):
+            raise OSError(f"cannot set {port['device']} to {port['baudrate']} baud")
+        self._packet = sdk.PacketHandler(2.0)
+        self._goal = sdk.GroupSyncWrite(self._port, self._packet, dxl.GOAL_POSITION, 4)
+        self._gain_write = sdk.GroupSyncWrite(self._port, self._packet, dxl.GAINS, 6)
+        self._present = sdk.GroupSyncRead(self._port, self._packet, dxl.PRESENT, dxl.PRESENT_LENGTH)
+        for servo in self.ids:
+            self._present.addParam(servo)
+        self._sync_read()
+        if self._time is None:
+            raise OSError(f"no answer from the servos {self.ids} on {port['device']}")
+
+    def _on_activate(self) -> None:
+        for servo in self.ids:
+            self._write_byte(servo, dxl.BUS_WATCHDOG, 0)  # clears a tripped watchdog
+            self._write_byte(servo, dxl.TORQUE_ENABLE, 1)
+            self._write_byte(servo, dxl.BUS_WATCHDOG, self.watchdog_units)
+        self._sync_read()
+
+    def _on_deactivate(self) -> None:
+        for servo in self.ids:
+            self._write_byte(servo, dxl.TORQUE_ENABLE, 0)
+
+    def _on_estop(self) -> None:
+        if self._port is None:
+            return
+        zero = np.zeros(self.nj)
+        q, _, _ = self.config.to_joint(self._p, self._v, self._t)
+        self._send(JointCommand(q=q, dq=zero, kp=zero, kd=self.kd_damping, tau_ff=zero))
+
+    def _on_close(self) -> None:
+        if self._port is not None:
+            self._port.closePort()
+            self._port = None
+
+    def _write_byte(self, servo: int, address: int, value: int) -> None:
+        result, error = self._packet.write1ByteTxRx(self._port, servo, address, value)
+        if result != sdk.COMM_SUCCESS or error:
+            raise OSError(f"servo {servo}: writing {value} at address {address} failed "
+                          f"({self._packet.getTxRxResult(result)}, error {error})")
+
+    # Read / write ---------------------------------------------------------------------------------
+    def _write(self, cmd: JointCommand) -> None:
+        self._send(cmd)
+
+    def _read(self) -> JointState:
+        self._sync_read()
+        q, dq, tau = self.config.to_joint(self._p, self._v, self._t)
+        fields = {}
+        if self._body is not None:
+            b = self._body
+            fields = dict(base_pos=b.base_pos, base_quat_xyzw=b.base_quat_xyzw, base_linvel=b.base_linvel,
+                          base_angvel=b.base_angvel, base_linacc=b.base_linacc, foot_wrench=b.foot_wrench,
+                          floor_contacts=b.floor_contacts)
+        return JointState(t=self._time, q=q, dq=dq, tau=tau, temperature=self._temperature.copy(), **fields)
+
+    def _send(self, cmd: JointCommand) -> None:
+        p, v, kp, kd, t = self.config.to_motor(cmd.q, cmd.dq, cmd.kp, cmd.kd, cmd.tau_ff)
+        kp_reg = np.clip(np.round(kp / self._kp_unit), 0, 65535).astype(int)
+        kd_reg = np.clip(np.round(kd / self._kd_unit), 0, 65535).astype(int)
+        gains = (tuple(kp_reg), tuple(kd_reg))
+        if gains != self._gains:
+            self._gain_write.clearParam()
+            for servo, d_gain, p_gain in zip(self.ids, kd_reg, kp_reg):
+                self._gain_write.addParam(servo, dxl.to_bytes(d_gain, 2) + dxl.to_bytes(0, 2) + dxl.to_bytes(p_gain, 2))
+            self._check(self._gain_write.txPacket(), "gain sync write")
+            self._gains = gains
+        kp_q = kp_reg * self._kp_unit
+        # Feedforward folded into the goal (see the module docstring); without stiffness, hold the goal.
+        goal = np.where(kp_q > 0, p + (t + kd_reg * self._kd_unit * v) / np.where(kp_q > 0, kp_q, 1.0), self._p)
+        raw = np.round(goal / self._rad_per_unit).astype(np.int64)
+        self._goal.clearParam()
+        for servo, value in zip(self.ids, raw):
+            self._goal.addParam(servo, dxl.to_bytes(int(value), 4))
+        self._check(self._goal.txPacket(), "goal sync write")
+
+    def _check(self, result: int, what: str) -> None:
+        if result != sdk.COMM_SUCCESS:
+            raise OSError(f"Dynamixel {what} failed: {self._packet.getTxRxResult(result)}")
+
+    def _sync_read(self) -> None:
+        if self._present.txRxPacket() != sdk.COMM_SUCCESS:
+            self.missing_replies += 1
+            return
+        for i, servo in enumerate(self.ids):
+            if not self._present.isAvailable(servo, dxl.PRESENT, dxl.PRESENT_LENGTH):
+                self.missing_replies += 1
+                return
+        for i, servo in enumerate(self.ids):
+            current = dxl.to_signed(self._present.getData(servo, dxl.PRESENT, 2), 2)
+            velocity = dxl.to_signed(self._present.getData(servo, dxl.PRESENT + 2, 4), 4)
+            position = dxl.to_signed(self._present.getData(servo, dxl.PRESENT + 6, 4), 4)
+            self._temperature[i] = self._present.getData(servo, dxl.PRESENT + dxl.TEMPERATURE_OFFSET, 1)
+            self._t[i] = current * self._torque_per_unit[i]
+            self._v[i] = velocity * self._velocity_unit[i]
+            self._p[i] = position * self._rad_per_unit[i]
+        self._body = self.body_sensors() if self.body_sensors is not None else None
+        self._time = self._body.t if self._body is not None else self.clock()

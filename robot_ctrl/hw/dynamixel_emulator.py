@@ -1,0 +1,189 @@
+"""DynamixelEmulator: Dynamixel servos (Protocol 2.0) emulated behind a pseudo-terminal, backed by a
+simulated robot.
+
+The emulator opens a pty pair and serves the servo side of the wire on the master end; a backend
+(or any Dynamixel tool) opens ``port_name``, the slave end, as it would open ``/dev/ttyUSB0``. It
+answers Ping, Read, Write, Sync Read and Sync Write for the servos of the bus config with status
+packets (CRC and byte stuffing as on the wire, ``dynamixel_protocol``). Registers kept per servo:
+Torque Enable, position D/I/P gains, Bus Watchdog, Goal Position; present current, velocity,
+position and temperature are computed from the plant.
+
+Each Sync Write of Goal Position that covers every servo applies the goals to the ``plant`` (a
+HardwareAdapter, normally the MuJoCo backend: hardware in the loop) and advances it one control
+period: servo i follows ``kp_i (goal_i − q_i) − kd_i dq_i`` with kp = P × kp_unit and kd = D ×
+kd_unit (joint side through the gear ratio). Torque disabled: limp. A Bus Watchdog that expires
+(no packet for its time, wall clock) stops the servo: damping only (kp = 0), the register reads
+−1 until the host writes 0, as on X-series servos. ``temperature`` (°C, per servo) is what Present
+Temperature reports; tests raise it to exercise the safety layer. Every applied command is kept in
+``received`` (joint side, with the plant time).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import select
+import threading
+import time
+import tty
+
+import numpy as np
+
+from robot_ctrl.hw import dynamixel_protocol as dxl
+from robot_ctrl.hw.adapter import HardwareAdapter
+from robot_ctrl.hw.bus_config import BusConfig
+from robot_ctrl.hw.types import JointCommand, JointState
+
+
+class DynamixelEmulator:
+    def __init__(self, config: BusConfig, plant: HardwareAdapter, temperature: float = 35.0):
+        if config.backend != "dynamixel":
+            raise ValueError(f"{config.path.name} is a {config.backend!r} config, not dynamixel")
+        self.config = config
+        self.plant = plant
+        n = len(config.motors)
+        self.nj = n
+        self._slot = {m.id: i for i, m in enumerate(config.motors)}
+        models = [config.models[m.model] for m in config.motors]
+        self._rad_per_unit = np.array([2 * math.pi / m["units_per_rev"] for m in models])
+        self._velocity_unit = np.array([m["velocity_unit"] for m in models])
+        self._torque_per_unit = np.array([m["current_unit"] * m["torque_constant"] for m in models])
+        self._kp_unit = np.array([m["kp_unit"] for m in models])
+        self._kd_unit = np.array([m["kd_unit"] for m in models])
+        self.torque_enable = np.zeros(n, dtype=int)
+        self.gains = np.zeros((n, 3), dtype=int)  # D, I, P registers
+        self.watchdog = np.zeros(n, dtype=int)  # register value; −1 when it expired
+        self.goal = np.zeros(n, dtype=np.int64)
+        self.temperature = np.full(n, float(temperature))
+        self.received: list[tuple[float, JointCommand]] = []
+        self._lock = threading.Lock()
+        self._state: JointState | None = None
+        self._last_packet = time.monotonic()
+        self._running = threading.Event()
+        self._thread: threading.Thread | None = None
+        self.port_name = ""
+
+    def start(self) -> None:
+        """Bring the plant up (configure, activate), open the pty and serve it."""
+        self.plant.configure()
+        self.plant.activate()
+        self._state = self.plant.read()
+        self.goal[:] = np.round(self._motor_position() / self._rad_per_unit)
+        self._master, slave = os.openpty()
+        tty.setraw(slave)
+        self.port_name = os.ttyname(slave)
+        self._slave = slave
+        self._running.set()
+        self._thread = threading.Thread(target=self._serve, name="dynamixel-emulator", daemon=True)
+        self._thread.start()
+
+    def close(self) -> None:
+        self._running.clear()
+        if self._thread is not None:
+            self._thread.join()
+            self._thread = None
+            os.close(self._master)
+            os.close(self._slave)
+        self.plant.close()
+
+    def body_state(self) -> JointState:
+        with self._lock:
+            return self._state
+
+    def clock(self) -> float:
+        """The plant's time [s] (the safety layer's clock in lock-step emulation)."""
+        with self._lock:
+            return self._state.t
+
+    # Wire side ------------------------------------------------------------------------------------
+    def _serve(self) -> None:
+        buffer = bytearray()
+        while self._running.is_set():
+            ready, _, _ = select.select([self._master], [], [], 0.05)
+            self._check_watchdog()
+            if not ready:
+                continue
+            buffer += os.read(self._master, 4096)
+            while (pkt := dxl.parse(buffer)) is not None:
+                self._last_packet = time.monotonic()
+                with self._lock:
+                    reply = self._handle(*pkt)
+                if reply:
+                    os.write(self._master, reply)
+
+    def _check_watchdog(self) -> None:
+        silent_ms = (time.monotonic() - self._last_packet) * 1e3
+        with self._lock:
+            expired = (self.watchdog > 0) & (silent_ms > 20.0 * self.watchdog)
+            self.watchdog[expired] = -1
+
+    def _handle(self, servo: int, instruction: int, params: bytes) -> bytes:
+        if instruction == dxl.INST_SYNC_WRITE:
+            address, length = int.from_bytes(params[0:2], "little"), int.from_bytes(params[2:4], "little")
+            written = set()
+            for k in range(4, len(params), 1 + length):
+                target = params[k]
+                if target in self._slot:
+                    self._store(self._slot[target], address, params[k + 1 : k + 1 + length])
+                    written.add(target)
+            if address == dxl.GOAL_POSITION and written == set(self._slot):
+                self._step()
+            return b""
+        if instruction == dxl.INST_SYNC_READ:
+            address, length = int.from_bytes(params[0:2], "little"), int.from_bytes(params[2:4], "little")
+            return b"".join(dxl.status(t, self._load(self._slot[t], address, length)) for t in params[4:]
+                            if t in self._slot)
+        if servo not in self._slot:
+            return b""
+        i = self._slot[servo]
+        if instruction == dxl.INST_PING:
+            return dxl.status(servo, bytes([0x06, 0x04, 0x2D]))  # model 1030 (XM430-W350), firmware 45
+        if instruction == dxl.INST_WRITE:
+            self._store(i, int.from_bytes(params[0:2], "little"), params[2:])
+            return dxl.status(servo)
+        if instruction == dxl.INST_READ:
+            address, length = int.from_bytes(params[0:2], "little"), int.from_bytes(params[2:4], "little")
+            return dxl.status(servo, self._load(i, address, length))
+        return dxl.status(servo, error=0x02)  # instruction error
+
+    def _store(self, i: int, address: int, data: bytes) -> None:
+        if address == dxl.TORQUE_ENABLE:
+            self.torque_enable[i] = data[0]
+        elif address == dxl.GAINS and len(data) == 6:
+            self.gains[i] = [int.from_bytes(data[k : k + 2], "little") for k in (0, 2, 4)]
+        elif address == dxl.BUS_WATCHDOG:
+            self.watchdog[i] = dxl.to_signed(data[0], 1)
+        elif address == dxl.GOAL_POSITION and len(data) == 4:
+            self.goal[i] = dxl.to_signed(int.from_bytes(data, "little"), 4)
+
+    def _load(self, i: int, address: int, length: int) -> bytes:
+        table = bytearray(256)
+        table[dxl.TORQUE_ENABLE] = self.torque_enable[i]
+        table[dxl.GAINS : dxl.GAINS + 6] = b"".join(dxl.to_bytes(int(g), 2) for g in self.gains[i])
+        table[dxl.BUS_WATCHDOG] = self.watchdog[i] & 0xFF
+        table[dxl.GOAL_POSITION : dxl.GOAL_POSITION + 4] = dxl.to_bytes(int(self.goal[i]), 4)
+        m, s = self.config.motors[i], self._state
+        current = round(m.direction * s.tau[i] / m.gear_ratio / self._torque_per_unit[i])
+        velocity = round(m.direction * m.gear_ratio * s.dq[i] / self._velocity_unit[i])
+        position = round(self._motor_position()[i] / self._rad_per_unit[i])
+        table[dxl.PRESENT : dxl.PRESENT + 2] = dxl.to_bytes(current, 2)
+        table[dxl.PRESENT + 2 : dxl.PRESENT + 6] = dxl.to_bytes(velocity, 4)
+        table[dxl.PRESENT + 6 : dxl.PRESENT + 10] = dxl.to_bytes(position, 4)
+        table[dxl.PRESENT + dxl.TEMPERATURE_OFFSET] = int(np.clip(round(self.temperature[i]), 0, 255))
+        return bytes(table[address : address + length])
+
+    def _motor_position(self) -> np.ndarray:
+        c = self.config
+        return c.direction * c.gear * self._state.q + c.zero
+
+    def _step(self) -> None:
+        c = self.config
+        on = self.torque_enable.astype(float)
+        stiff = on * (self.watchdog >= 0)  # an expired watchdog leaves damping only
+        goal = self.goal * self._rad_per_unit
+        cmd = JointCommand(q=c.direction * (goal - c.zero) / c.gear, dq=np.zeros(self.nj),
+                           kp=stiff * self.gains[:, 2] * self._kp_unit * c.gear**2,
+                           kd=on * self.gains[:, 0] * self._kd_unit * c.gear**2, tau_ff=np.zeros(self.nj))
+        self.received.append((self._state.t, cmd))
+        self.plant.write(cmd)
+        self._state = self.plant.read()

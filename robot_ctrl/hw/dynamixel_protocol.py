@@ -1,0 +1,114 @@
+"""Dynamixel Protocol 2.0 framing: CRC-16, byte stuffing, instruction and status packets.
+
+The backend talks through ``dynamixel_sdk``; this module is the servo side of the same wire
+format, used by the emulator (and by tests to check what the SDK put on the wire)::
+
+    FF FF FD 00 | ID | LEN_L LEN_H | INSTRUCTION | PARAMETERS … | CRC_L CRC_H
+
+``LEN`` counts the bytes after it (instruction, parameters, CRC). Inside the instruction and
+parameters every ``FF FF FD`` is sent as ``FF FF FD FD`` (stuffing). The CRC-16 (polynomial 0x8005,
+initial value 0, not reflected) covers everything before it, after stuffing. Status packets use
+the instruction 0x55 followed by an error byte. X-series control table addresses used here:
+Torque Enable 64, Position D/I/P Gain 80/82/84, Bus Watchdog 98, Goal Position 116,
+Present Current 126, Present Velocity 128, Present Position 132, Present Temperature 146.
+"""
+
+from __future__ import annotations
+
+HEADER = bytes([0xFF, 0xFF, 0xFD, 0x00])
+INST_PING, INST_READ, INST_WRITE, INST_STATUS = 0x01, 0x02, 0x03, 0x55
+INST_SYNC_READ, INST_SYNC_WRITE = 0x82, 0x83
+BROADCAST = 0xFE
+
+TORQUE_ENABLE = 64
+GAINS = 80  # D gain (2 bytes), I gain (2), P gain (2)
+BUS_WATCHDOG = 98
+GOAL_POSITION = 116
+PRESENT = 126  # current (2), velocity (4), position (4), … temperature at 146
+PRESENT_LENGTH = 21
+TEMPERATURE_OFFSET = 146 - PRESENT
+
+
+def _crc_table() -> list[int]:
+    table = []
+    for byte in range(256):
+        crc = byte << 8
+        for _ in range(8):
+            crc = ((crc << 1) ^ 0x8005) if crc & 0x8000 else (crc << 1)
+        table.append(crc & 0xFFFF)
+    return table
+
+
+_TABLE = _crc_table()
+
+
+def crc16(data: bytes) -> int:
+    crc = 0
+    for byte in data:
+        crc = ((crc << 8) ^ _TABLE[((crc >> 8) ^ byte) & 0xFF]) & 0xFFFF
+    return crc
+
+
+def stuff(body: bytes) -> bytes:
+    """Insert 0xFD after every FF FF FD in the instruction and parameters."""
+    out = bytearray()
+    for byte in body:
+        out.append(byte)
+        if len(out) >= 3 and out[-3:] == b"\xff\xff\xfd":
+            out.append(0xFD)
+    return bytes(out)
+
+
+def unstuff(body: bytes) -> bytes:
+    out = bytearray()
+    i = 0
+    while i < len(body):
+        out.append(body[i])
+        if len(out) >= 3 and out[-3:] == b"\xff\xff\xfd" and i + 1 < len(body) and body[i + 1] == 0xFD:
+            i += 1  # drop the stuffing byte
+        i += 1
+    return bytes(out)
+
+
+def packet(servo_id: int, instruction: int, params: bytes = b"") -> bytes:
+    body = stuff(bytes([instruction]) + params)
+    length = len(body) + 2
+    head = HEADER + bytes([servo_id, length & 0xFF, length >> 8]) + body
+    crc = crc16(head)
+    return head + bytes([crc & 0xFF, crc >> 8])
+
+
+def status(servo_id: int, params: bytes = b"", error: int = 0) -> bytes:
+    return packet(servo_id, INST_STATUS, bytes([error]) + params)
+
+
+def parse(buffer: bytearray) -> tuple[int, int, bytes] | None:
+    """Take the first complete packet off ``buffer``: ``(id, instruction, params)``; None if none is
+    complete yet. Bytes before a header and packets with a bad CRC are dropped."""
+    while True:
+        start = buffer.find(HEADER)
+        if start < 0:
+            del buffer[: max(len(buffer) - 3, 0)]
+            return None
+        del buffer[:start]
+        if len(buffer) < 7:
+            return None
+        length = buffer[5] | (buffer[6] << 8)
+        end = 7 + length
+        if len(buffer) < end:
+            return None
+        raw = bytes(buffer[:end])
+        del buffer[:end]
+        if crc16(raw[:-2]) != (raw[-2] | (raw[-1] << 8)):
+            continue
+        body = unstuff(raw[7:-2])
+        return raw[4], body[0], body[1:]
+
+
+def to_signed(value: int, size: int) -> int:
+    bits = 8 * size
+    return value - (1 << bits) if value >= 1 << (bits - 1) else value
+
+
+def to_bytes(value: int, size: int) -> bytes:
+    return int(value & ((1 << (8 * size)) - 1)).to_bytes(size, "little")

@@ -1,0 +1,136 @@
+"""MitCanBackend: joints driven by MIT-style CAN servos (``mit_protocol``) over python-can.
+
+Lifecycle: ``configure`` opens one python-can bus per bus in the YAML; ``activate`` sends the
+enter-motor-mode frame to every motor and takes their replies as the first state; ``write`` sends
+one command frame per motor (joint side converted to motor side, see ``bus_config``); ``read``
+collects the replies that command caused (each motor answers every frame it receives) and
+returns the joint state; ``deactivate`` sends exit-motor-mode; ``estop`` sends damping commands
+(kp = 0, kd = ``kd_damping``, τ = 0) to every motor. ``zero_motor(joint)`` sends the set-zero frame
+(only on request: it redefines the encoder's zero).
+
+A motor bus carries joint data only. The base pose, IMU and foot force/torque readings of the
+JointState come from ``body_sensors`` (a callable returning a JointState whose body fields are
+used), which on a real robot is the IMU/force-sensor driver and in the emulator the simulation.
+If a reply is missing after ``reply_timeout`` s the state keeps its previous timestamp and values
+for that motor (``missing_replies`` counts them): the safety layer sees a stale state.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Callable
+
+import can
+import numpy as np
+
+from robot_ctrl.hw.adapter import HardwareAdapter
+from robot_ctrl.hw.bus_config import BusConfig
+from robot_ctrl.hw.mit_protocol import DISABLE, ENABLE, SET_ZERO, MitRanges, pack_command, unpack_reply
+from robot_ctrl.hw.types import JointCommand, JointState
+
+
+class MitCanBackend(HardwareAdapter):
+    def __init__(self, config: BusConfig, kd_damping: np.ndarray, body_sensors: Callable[[], JointState] | None = None,
+                 reply_timeout: float = 0.05, clock: Callable[[], float] = time.monotonic):
+        if config.backend != "mit_can":
+            raise ValueError(f"{config.path.name} is a {config.backend!r} config, not mit_can")
+        super().__init__(len(config.motors))
+        self.config = config
+        self.kd_damping = np.asarray(kd_damping, dtype=float)
+        self.body_sensors = body_sensors
+        self.reply_timeout = reply_timeout
+        self.clock = clock
+        self.ranges = [MitRanges.from_dict(config.models[m.model]) for m in config.motors]
+        self._index = {(m.bus, m.id): i for i, m in enumerate(config.motors)}
+        self._buses: dict[str, can.BusABC] = {}
+        self._p = np.zeros(self.nj)  # motor side
+        self._v = np.zeros(self.nj)
+        self._t = np.zeros(self.nj)
+        self._time = None
+        self._body: JointState | None = None
+        self.missing_replies = 0
+
+    # Lifecycle hooks ------------------------------------------------------------------------------
+    def _on_configure(self) -> None:
+        for name, options in self.config.buses.items():
+            self._buses[name] = can.Bus(**options)
+
+    def _on_activate(self) -> None:
+        self._broadcast(ENABLE)
+        self._collect()
+
+    def _on_deactivate(self) -> None:
+        self._broadcast(DISABLE)
+        self._collect()
+
+    def _on_estop(self) -> None:
+        if not self._buses:
+            return
+        q, _, _ = self.config.to_joint(self._p, self._v, self._t)
+        zero = np.zeros(self.nj)
+        self._send_commands(JointCommand(q=q, dq=zero, kp=zero, kd=self.kd_damping, tau_ff=zero))
+        self._collect()
+
+    def _on_close(self) -> None:
+        for bus in self._buses.values():
+            bus.shutdown()
+        self._buses.clear()
+
+    def zero_motor(self, joint: str) -> None:
+        """Make the motor of ``joint`` take its current position as zero (writes its encoder offset)."""
+        motor = next((m for m in self.config.motors if m.joint == joint), None)
+        if motor is None:
+            raise KeyError(f"{joint!r} is not in {self.config.path.name}")
+        self._buses[motor.bus].send(can.Message(arbitration_id=motor.id, data=SET_ZERO, is_extended_id=False))
+        self._collect()
+
+    # Read / write ---------------------------------------------------------------------------------
+    def _write(self, cmd: JointCommand) -> None:
+        self._send_commands(cmd)
+
+    def _read(self) -> JointState:
+        q, dq, tau = self.config.to_joint(self._p, self._v, self._t)
+        body = self._body
+        fields = {}
+        if body is not None:
+            fields = dict(base_pos=body.base_pos, base_quat_xyzw=body.base_quat_xyzw, base_linvel=body.base_linvel,
+                          base_angvel=body.base_angvel, base_linacc=body.base_linacc, foot_wrench=body.foot_wrench,
+                          floor_contacts=body.floor_contacts)
+        return JointState(t=self._time if self._time is not None else 0.0, q=q, dq=dq, tau=tau, **fields)
+
+    def _send_commands(self, cmd: JointCommand) -> None:
+        p, v, kp, kd, t = self.config.to_motor(cmd.q, cmd.dq, cmd.kp, cmd.kd, cmd.tau_ff)
+        for i, m in enumerate(self.config.motors):
+            data = pack_command(p[i], v[i], kp[i], kd[i], t[i], self.ranges[i])
+            self._buses[m.bus].send(can.Message(arbitration_id=m.id, data=data, is_extended_id=False))
+        self._collect()
+
+    def _broadcast(self, frame: bytes) -> None:
+        for m in self.config.motors:
+            self._buses[m.bus].send(can.Message(arbitration_id=m.id, data=frame, is_extended_id=False))
+
+    def _collect(self) -> None:
+        """Receive one reply per motor (or time out); on a complete set, advance the state's time."""
+        replied = np.zeros(self.nj, dtype=bool)
+        deadline = self.clock() + self.reply_timeout
+        for name, bus in self._buses.items():
+            expected = sum(1 for m in self.config.motors if m.bus == name)
+            got = 0
+            while got < expected:
+                remaining = deadline - self.clock()
+                msg = bus.recv(timeout=max(remaining, 0.0)) if remaining > 0 else None
+                if msg is None:
+                    break
+                if len(msg.data) != 6:
+                    continue
+                i = self._index.get((name, msg.data[0]))
+                if i is None or replied[i]:
+                    continue
+                _, self._p[i], self._v[i], self._t[i] = unpack_reply(bytes(msg.data), self.ranges[i])
+                replied[i] = True
+                got += 1
+        if replied.all():
+            self._body = self.body_sensors() if self.body_sensors is not None else None
+            self._time = self._body.t if self._body is not None else self.clock()
+        else:
+            self.missing_replies += int((~replied).sum())

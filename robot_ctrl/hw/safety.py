@@ -1,0 +1,291 @@
+"""SafetyLayer: wraps any hardware backend and makes sure only safe commands reach it.
+
+What it does with each ``write`` (in this order), each counted in ``interventions`` and logged
+(first occurrence per kind, then a summary on close):
+
+- ``rejected_command``: a command with NaN/inf or the wrong shape is refused; the last safe
+  command is sent again instead (damping if there is none). ``write`` does not raise, so a loop that
+  produced one bad sample keeps a held robot; the counter tells.
+- ``position_clamped``: position targets clamped into [lower, upper] (the config's limits).
+- ``position_step_limited``: the target moves at most ``max_step`` rad per tick from the last one sent.
+- ``velocity_clamped``: velocity targets clamped to ± the velocity limit.
+- ``torque_clamped``: feedforward clamped to ± effort, then the target moved so the servo torque
+  ``kp (q − q_meas) + kd (dq − dq_meas) + τ_ff`` at the last measured state stays within ± effort.
+- soft start: kp ramps linearly from 0 to the commanded value over ``soft_start`` s of ticks after
+  activation and after any damping episode (kd is never ramped).
+- ``watchdog``: no ``write`` for ``watchdog_periods`` control periods (wall clock, checked on every
+  read and by the optional watchdog thread) → damping mode (kp = 0, τ_ff = 0, kd = ``kd_damping``).
+  The next valid write resumes with a soft start.
+- ``stale_state``: the backend's state has not advanced for ``stale_periods`` control periods →
+  damping mode; writes are answered with damping until a fresh state arrives.
+- temperature (where the backend reports it): ``temperature_warn`` logs once per joint;
+  above ``temperature_derate`` kp and the torque limit of that joint scale down linearly, to 20 % at
+  ``temperature_fault``; at ``temperature_fault`` the layer latches a FAULT in damping mode until
+  ``reset()``.
+- ``estop``: latches the backend's e-stop (damping); idempotent and thread-safe; every later
+  ``write`` raises ``LifecycleError`` until ``reset()`` and a new ``activate()``.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections import Counter
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from robot_ctrl.hw.adapter import HardwareAdapter
+from robot_ctrl.hw.types import CommandError, JointCommand, JointState, LifecycleState
+from robot_ctrl.robot.model import RobotModel
+
+S = LifecycleState
+logger = logging.getLogger("robot_ctrl.hw.safety")
+
+
+@dataclass(frozen=True)
+class SafetyLimits:
+    lower: np.ndarray  # (nj,) position limits [rad]
+    upper: np.ndarray
+    velocity: np.ndarray  # (nj,) [rad/s]
+    effort: np.ndarray  # (nj,) [N·m]
+    kd_damping: np.ndarray  # (nj,) damping-mode gains [N·m·s/rad]
+    control_dt: float = 0.005  # [s]
+    max_step: float = 0.05  # [rad] per tick
+    soft_start: float = 0.5  # [s]
+    watchdog_periods: float = 2.0
+    stale_periods: float = 4.0
+    temperature_warn: float = 60.0  # [°C]
+    temperature_derate: float = 70.0
+    temperature_fault: float = 80.0
+
+    def __post_init__(self):
+        n = len(self.lower)
+        for name in ("upper", "velocity", "effort", "kd_damping"):
+            value = np.asarray(getattr(self, name))
+            if value.shape != (n,) or not np.all(np.isfinite(value)):
+                raise ValueError(f"SafetyLimits.{name} must be {n} finite values")
+        if np.any(np.asarray(self.lower) >= np.asarray(self.upper)):
+            raise ValueError("SafetyLimits.lower must be below upper for every joint")
+        checks = {"control_dt": (1e-4, 0.1), "max_step": (1e-4, 1.0), "soft_start": (0.0, 10.0),
+                  "watchdog_periods": (1.0, 100.0), "stale_periods": (1.0, 1000.0)}
+        for name, (lo, hi) in checks.items():
+            value = getattr(self, name)
+            if not (np.isfinite(value) and lo <= value <= hi):
+                raise ValueError(f"SafetyLimits.{name} = {value} is outside the allowed range [{lo}, {hi}]")
+        if not self.temperature_warn <= self.temperature_derate < self.temperature_fault:
+            raise ValueError("SafetyLimits temperatures must satisfy warn <= derate < fault")
+
+    @classmethod
+    def from_robot(cls, robot: RobotModel, control_dt: float = 0.005, **overrides) -> "SafetyLimits":
+        """Limits from the robot model: URDF position limits (already inside the config's margins
+        for the IK), velocity and effort limits, and the default servo damping for damping mode."""
+        return cls(lower=robot.lower.copy(), upper=robot.upper.copy(), velocity=robot.velocity_limit.copy(),
+                   effort=robot.effort.copy(), kd_damping=robot.kd.copy(), control_dt=control_dt, **overrides)
+
+
+class SafetyLayer(HardwareAdapter):
+    def __init__(self, backend: HardwareAdapter, limits: SafetyLimits, clock: Callable[[], float] = time.monotonic):
+        super().__init__(backend.nj)
+        if len(limits.lower) != backend.nj:
+            raise ValueError(f"SafetyLimits are for {len(limits.lower)} joints, the backend has {backend.nj}")
+        self.backend = backend
+        self.limits = limits
+        self.clock = clock
+        self.interventions: Counter[str] = Counter()
+        self.mode = "off"  # "normal", "damping", "off"
+        self._lock = threading.RLock()
+        self._last_sent: JointCommand | None = None
+        self._last_state: JointState | None = None
+        self._last_write = None  # wall time of the last write (None: watchdog not armed)
+        self._fresh_at = None  # wall time of the last state that advanced
+        self._ticks = 0  # writes since the soft start began
+        self._derate = np.ones(backend.nj)
+        self._warned = np.zeros(backend.nj, dtype=bool)
+        self._watchdog: threading.Thread | None = None
+        self._stop_watchdog = threading.Event()
+
+    # Lifecycle ----------------------------------------------------------------------------------
+    def _on_configure(self) -> None:
+        self.backend.configure()
+
+    def _on_activate(self) -> None:
+        self.backend.activate()
+        self._begin_soft_start()
+        self._last_write = None
+        self.mode = "normal"
+
+    def _on_deactivate(self) -> None:
+        self.backend.deactivate()
+        self.mode = "off"
+
+    def estop(self) -> None:
+        with self._lock:
+            if self._closed or self._state is S.ESTOP:
+                return
+            self.interventions["estop"] += 1
+            logger.warning("e-stop: servos in damping mode, latched until reset()")
+            super().estop()
+
+    def _on_estop(self) -> None:
+        self.backend.estop()
+        self.mode = "off"
+
+    def _on_reset(self) -> None:
+        if self.backend.state in (S.ESTOP, S.FAULT):
+            self.backend.reset()
+        elif self.backend.state is S.ACTIVE:  # a fault of this layer (temperature) left it in damping
+            self.backend.deactivate()
+        self._warned[:] = False
+        self._derate[:] = 1.0
+
+    def _on_close(self) -> None:
+        self.stop_watchdog()
+        self.backend.close()
+        if self.interventions:
+            logger.info("safety interventions: %s", dict(self.interventions))
+
+    def start_watchdog(self) -> None:
+        """Check the write watchdog from a background thread every control period (real buses)."""
+        if self._watchdog is None:
+            self._stop_watchdog.clear()
+            self._watchdog = threading.Thread(target=self._watch, name="safety-watchdog", daemon=True)
+            self._watchdog.start()
+
+    def stop_watchdog(self) -> None:
+        if self._watchdog is not None:
+            self._stop_watchdog.set()
+            self._watchdog.join()
+            self._watchdog = None
+
+    def _watch(self) -> None:
+        while not self._stop_watchdog.wait(self.limits.control_dt):
+            self.check_watchdog()
+
+    # Read / write -------------------------------------------------------------------------------
+    def _read(self) -> JointState:
+        state = self.backend.read()
+        now = self.clock()
+        with self._lock:
+            previous = self._last_state
+            if previous is None or state.t > previous.t:
+                self._fresh_at = now
+            elif self._fresh_at is not None and now - self._fresh_at > self.limits.stale_periods * self.limits.control_dt:
+                if self.mode == "normal":
+                    self._intervene("stale_state", f"no new state for {now - self._fresh_at:.3f} s")
+                    self._enter_damping(state)
+            self._last_state = state
+            if state.temperature is not None:
+                self._check_temperature(np.asarray(state.temperature, dtype=float), state)
+        self.check_watchdog()
+        return state
+
+    def write(self, command: JointCommand) -> None:
+        with self._lock:
+            self._require("write", S.ACTIVE)
+            self._last_write = self.clock()
+            try:
+                command.validate(self.nj)
+            except CommandError as exc:
+                self._intervene("rejected_command", str(exc))
+                self._send(self._last_sent if self._last_sent is not None else self._damping_command())
+                return
+            super().write(command)
+
+    def _write(self, command: JointCommand) -> None:
+        stale = (self._fresh_at is not None
+                 and self._last_write - self._fresh_at > self.limits.stale_periods * self.limits.control_dt)
+        if stale or self._last_state is None:
+            self._send(self._damping_command())
+            return
+        if self.mode == "damping":
+            logger.info("resuming from damping mode with a soft start")
+            self._begin_soft_start()
+            self.mode = "normal"
+        self._send(self._filter(command))
+
+    def check_watchdog(self) -> None:
+        """Enter damping mode if no write came for ``watchdog_periods`` control periods."""
+        with self._lock:
+            if self._state is not S.ACTIVE or self.mode != "normal" or self._last_write is None:
+                return
+            silent = self.clock() - self._last_write
+            if silent > self.limits.watchdog_periods * self.limits.control_dt:
+                self._intervene("watchdog", f"no write for {silent * 1e3:.1f} ms")
+                self._enter_damping(self._last_state)
+
+    def report(self) -> dict:
+        return {"interventions": dict(self.interventions), "mode": self.mode, "state": self.state.value}
+
+    # Internals ----------------------------------------------------------------------------------
+    def _intervene(self, kind: str, detail: str) -> None:
+        if self.interventions[kind] == 0:
+            logger.warning("safety: %s (%s)", kind, detail)
+        self.interventions[kind] += 1
+
+    def _begin_soft_start(self) -> None:
+        self._ticks = 0
+        self._last_sent = None
+
+    def _send(self, cmd: JointCommand) -> None:
+        self.backend.write(cmd)
+        self._last_sent = cmd
+
+    def _damping_command(self, state: JointState | None = None) -> JointCommand:
+        state = state or self._last_state
+        q = state.q.copy() if state is not None else (self.limits.lower + self.limits.upper) / 2
+        zero = np.zeros(self.nj)
+        return JointCommand(q=np.clip(q, self.limits.lower, self.limits.upper), dq=zero, kp=zero.copy(),
+                            kd=self.limits.kd_damping.copy(), tau_ff=zero.copy())
+
+    def _enter_damping(self, state: JointState | None) -> None:
+        self.mode = "damping"
+        if self.backend.state is S.ACTIVE:
+            self._send(self._damping_command(state))
+
+    def _check_temperature(self, temperature: np.ndarray, state: JointState) -> None:
+        lim = self.limits
+        hot = (temperature >= lim.temperature_warn) & ~self._warned
+        for i in np.flatnonzero(hot):
+            self._intervene("temperature_warn", f"joint {i} at {temperature[i]:.1f} °C")
+            self._warned[i] = True
+        span = lim.temperature_fault - lim.temperature_derate
+        self._derate = np.clip(1.0 - 0.8 * (temperature - lim.temperature_derate) / span, 0.2, 1.0)
+        if np.any(temperature > lim.temperature_derate):
+            self.interventions["temperature_derate"] += 1
+        if np.any(temperature >= lim.temperature_fault) and self._state is S.ACTIVE:
+            joints = np.flatnonzero(temperature >= lim.temperature_fault).tolist()
+            self._intervene("temperature_fault", f"joints {joints} at or above {lim.temperature_fault} °C")
+            self._enter_damping(state)
+            self._state = S.FAULT
+
+    def _filter(self, cmd: JointCommand) -> JointCommand:
+        lim, state = self.limits, self._last_state
+        q = np.clip(cmd.q, lim.lower, lim.upper)
+        if np.any(q != cmd.q):
+            self._intervene("position_clamped", f"joints {np.flatnonzero(q != cmd.q).tolist()}")
+        reference = self._last_sent.q if self._last_sent is not None else state.q
+        stepped = reference + np.clip(q - reference, -lim.max_step, lim.max_step)
+        if np.any(stepped != q):
+            self._intervene("position_step_limited", f"joints {np.flatnonzero(stepped != q).tolist()}")
+        q = np.clip(stepped, lim.lower, lim.upper)
+        dq = np.clip(cmd.dq, -lim.velocity, lim.velocity)
+        if np.any(dq != cmd.dq):
+            self._intervene("velocity_clamped", f"joints {np.flatnonzero(dq != cmd.dq).tolist()}")
+        ramp = min(1.0, (self._ticks + 1) * lim.control_dt / lim.soft_start) if lim.soft_start > 0 else 1.0
+        self._ticks += 1
+        kp = cmd.kp * ramp * self._derate
+        effort = lim.effort * self._derate
+        tau_ff = np.clip(cmd.tau_ff, -effort, effort)
+        # Servo torque at the last measured state within ± effort: bound q around q_meas.
+        rest = tau_ff + cmd.kd * (dq - state.dq)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            lo = np.where(kp > 0, state.q + (-effort - rest) / kp, -np.inf)
+            hi = np.where(kp > 0, state.q + (effort - rest) / kp, np.inf)
+        bounded = np.clip(q, np.minimum(lo, hi), np.maximum(lo, hi))
+        if np.any(tau_ff != cmd.tau_ff) or np.any(bounded != q):
+            self._intervene("torque_clamped", f"joints {np.flatnonzero((bounded != q) | (tau_ff != cmd.tau_ff)).tolist()}")
+        q = np.clip(bounded, lim.lower, lim.upper)
+        return JointCommand(q=q, dq=dq, kp=kp, kd=cmd.kd.copy(), tau_ff=tau_ff)

@@ -1,0 +1,224 @@
+"""Servo buses: protocol packing, the MIT-CAN and Dynamixel emulators (MuJoCo behind them) and the
+safety layer's behaviour, checked on the emulator side of the bus."""
+
+import dataclasses
+import json
+import threading
+import uuid
+
+import numpy as np
+import pytest
+
+from robot_ctrl.cli import main
+from robot_ctrl.hw import dynamixel_protocol as dxl
+from robot_ctrl.hw.adapter import LifecycleError
+from robot_ctrl.hw.bus_config import load_bus_config
+from robot_ctrl.hw.dynamixel_backend import DynamixelBackend
+from robot_ctrl.hw.dynamixel_emulator import DynamixelEmulator
+from robot_ctrl.hw.mit_can_backend import MitCanBackend
+from robot_ctrl.hw.mit_can_emulator import MitCanEmulator
+from robot_ctrl.hw.mit_protocol import MitRanges, pack_command, pack_reply, unpack_command, unpack_reply
+from robot_ctrl.hw.mujoco_backend import MujocoBackend
+from robot_ctrl.hw.safety import SafetyLayer, SafetyLimits
+from robot_ctrl.hw.types import JointCommand, LifecycleState
+from robot_ctrl.robot.config import ConfigError
+
+DT = 0.005
+
+
+class FakeClock:
+    def __init__(self):
+        self.t = 100.0
+
+    def __call__(self):
+        return self.t
+
+
+def test_mit_frames_round_trip_within_one_quantization_step():
+    r = MitRanges((-12.5, 12.5), (-20.0, 20.0), (0.0, 10000.0), (0.0, 300.0), (-320.0, 320.0))
+    rng = np.random.default_rng(0)
+    for _ in range(500):
+        values = [rng.uniform(*getattr(r, f)) for f in ("position", "velocity", "kp", "kd", "torque")]
+        decoded = unpack_command(pack_command(*values, r), r)
+        for f, x, y in zip(("position", "velocity", "kp", "kd", "torque"), values, decoded):
+            assert abs(x - y) <= r.step(f) / 2 + 1e-12
+        motor, p, v, t = unpack_reply(pack_reply(7, values[0], values[1], values[4], r), r)
+        assert motor == 7 and abs(p - values[0]) <= r.step("position") / 2 + 1e-12
+        assert abs(v - values[1]) <= r.step("velocity") / 2 + 1e-12 and abs(t - values[4]) <= r.step("torque") / 2 + 1e-12
+    assert unpack_command(pack_command(99.0, 0, 0, 0, -999.0, r), r)[0] == 12.5  # clamped into the range
+    with pytest.raises(ValueError, match="NaN"):
+        pack_command(float("nan"), 0, 0, 0, 0, r)
+
+
+def test_dynamixel_packets_match_the_wire_format():
+    # Robotis e-manual, Protocol 2.0 Ping example: ID 1 -> FF FF FD 00 01 03 00 01 19 4E.
+    assert dxl.packet(1, dxl.INST_PING) == bytes.fromhex("FFFFFD0001030001194E")
+    params = bytes([0x10, 0xFF, 0xFF, 0xFD, 0x20])
+    wire = dxl.packet(3, dxl.INST_WRITE, params)
+    assert b"\xff\xff\xfd\xfd" in wire[7:]  # stuffed
+    assert dxl.parse(bytearray(b"\x00junk" + wire)) == (3, dxl.INST_WRITE, params)
+    corrupt = bytearray(wire)
+    corrupt[-1] ^= 0xFF
+    assert dxl.parse(corrupt) is None
+
+
+def test_bus_config_errors_name_the_joint_and_field(talos, tmp_path):
+    text = load_bus_config("talos_mit_can", talos.joint_names).path.read_text()
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(text.replace("leg_left_3_joint:      {bus: can0, id:  3, model: leg,     direction: 1",
+                                "leg_left_3_joint:      {bus: can0, id:  3, model: leg,     direction: 2"))
+    with pytest.raises(ConfigError, match=r"joints.leg_left_3_joint.direction must be 1 or -1"):
+        load_bus_config(bad, talos.joint_names)
+    bad.write_text("\n".join(line for line in text.splitlines() if not line.strip().startswith("head_2_joint")))
+    with pytest.raises(ConfigError, match=r"joints missing from the mapping: \['head_2_joint'\]"):
+        load_bus_config(bad, talos.joint_names)
+
+
+@pytest.fixture
+def mit(talos):
+    """The safety layer over the MIT-CAN backend, the emulator on fresh virtual channels, a fake wall clock."""
+    config = load_bus_config("talos_mit_can", talos.joint_names)
+    tag = uuid.uuid4().hex[:8]
+    config = dataclasses.replace(config, buses={k: dict(v, channel=f"{v['channel']}_{tag}") for k, v in config.buses.items()})
+    emulator = MitCanEmulator(config, MujocoBackend(talos))
+    emulator.start()
+    clock = FakeClock()
+    hw = SafetyLayer(MitCanBackend(config, talos.kd, body_sensors=emulator.body_state),
+                     SafetyLimits.from_robot(talos, soft_start=0.1), clock=clock)
+    hw.configure()
+    hw.activate()
+    yield hw, emulator, clock, hw.read()
+    hw.close()
+    emulator.close()
+
+
+def hold(talos, state, **change):
+    fields = dict(q=state.q.copy(), dq=np.zeros(talos.nj), kp=talos.kp.copy(), kd=talos.kd.copy(),
+                  tau_ff=np.zeros(talos.nj))
+    fields.update(change)
+    return JointCommand(**fields)
+
+
+def tick(hw, clock, command):
+    clock.t += DT
+    hw.write(command)
+    return hw.read()
+
+
+def test_nan_and_out_of_limit_commands_never_reach_the_bus(talos, mit):
+    hw, emulator, clock, state = mit
+    for _ in range(30):  # past the soft start
+        state = tick(hw, clock, hold(talos, state))
+    before = emulator.received[-1][1]
+    bad_q = state.q.copy()
+    bad_q[3] = np.nan
+    tick(hw, clock, hold(talos, state, q=bad_q))
+    assert hw.interventions["rejected_command"] == 1
+    np.testing.assert_allclose(emulator.received[-1][1].q, before.q, atol=1e-3)  # the last safe command, held
+    far = state.q.copy()
+    far[3] = talos.upper[3] + 1.0  # knee far beyond its limit
+    for _ in range(5):
+        before_last = state
+        state = tick(hw, clock, hold(talos, state, q=far))
+    sent = np.array([c.q for _, c in emulator.received])
+    assert np.all(np.isfinite(sent))
+    assert sent[:, 3].max() <= talos.upper[3] + 1e-3
+    assert np.abs(np.diff(sent[-6:, 3])).max() <= hw.limits.max_step + 1e-3  # rate limited
+    assert hw.interventions["position_step_limited"] >= 1 and hw.interventions["torque_clamped"] >= 1
+    # The servo torque at the state the layer saw stays within the effort limit (+ quantization).
+    last = emulator.received[-1][1]
+    torque = last.kp * (last.q - before_last.q) + last.kd * (last.dq - before_last.dq) + last.tau_ff
+    assert abs(torque[3]) <= talos.effort[3] + 5.0
+
+
+def test_missed_write_trips_the_watchdog_into_damping(talos, mit):
+    hw, emulator, clock, state = mit
+    for _ in range(30):
+        state = tick(hw, clock, hold(talos, state))
+    clock.t += 2.5 * DT  # no write for more than two control periods
+    hw.read()
+    assert hw.mode == "damping" and hw.interventions["watchdog"] == 1
+    damping = emulator.received[-1][1]
+    assert np.all(damping.kp == 0)
+    assert np.abs(damping.tau_ff).max() < 0.1  # zero torque, within half a step of the 12-bit range
+    np.testing.assert_allclose(damping.kd, talos.kd, rtol=0.01, atol=0.1)
+    state = tick(hw, clock, hold(talos, state))  # the next write resumes with a soft start
+    assert hw.mode == "normal" and np.all(emulator.received[-1][1].kp <= 0.06 * talos.kp + 3.0)
+
+
+def test_stale_state_puts_the_servos_in_damping(talos, mit):
+    hw, emulator, clock, state = mit
+    for _ in range(30):
+        state = tick(hw, clock, hold(talos, state))
+    emulator.drop_replies = True
+    for _ in range(10):
+        tick(hw, clock, hold(talos, state))
+    assert hw.interventions["stale_state"] == 1 and hw.mode == "damping"
+    assert np.all(emulator.received[-1][1].kp == 0)
+
+
+def test_estop_latches_until_reset(talos, mit):
+    hw, emulator, clock, state = mit
+    for _ in range(30):
+        state = tick(hw, clock, hold(talos, state))
+    stopper = threading.Thread(target=hw.estop)
+    stopper.start()
+    stopper.join()
+    hw.estop()  # idempotent
+    assert hw.state is LifecycleState.ESTOP and hw.interventions["estop"] == 1
+    count = len(emulator.received)
+    assert np.all(emulator.received[-1][1].kp == 0)
+    with pytest.raises(LifecycleError):
+        hw.write(hold(talos, state))
+    with pytest.raises(LifecycleError):
+        hw.activate()  # still latched
+    assert len(emulator.received) == count  # nothing reached the bus
+    hw.reset()
+    hw.activate()
+    state = hw.read()
+    tick(hw, clock, hold(talos, state))
+    assert np.all(emulator.received[-1][1].kp <= 0.06 * talos.kp + 3.0)  # soft start again
+
+
+def test_temperature_derates_then_faults(talos):
+    config = load_bus_config("talos_dynamixel", talos.joint_names)
+    emulator = DynamixelEmulator(config, MujocoBackend(talos))
+    emulator.start()
+    config = dataclasses.replace(config, buses={"port": dict(config.buses["port"], device=emulator.port_name)})
+    clock = FakeClock()
+    hw = SafetyLayer(DynamixelBackend(config, talos.kd, body_sensors=emulator.body_state),
+                     SafetyLimits.from_robot(talos, soft_start=0.05), clock=clock)
+    try:
+        hw.configure()
+        hw.activate()
+        state = hw.read()
+        for _ in range(20):
+            state = tick(hw, clock, hold(talos, state))
+        assert np.all(state.temperature == 35)
+        emulator.temperature[3] = 75.0  # halfway from derate (70) to fault (80)
+        state = tick(hw, clock, hold(talos, state))
+        state = tick(hw, clock, hold(talos, state))
+        kp = emulator.received[-1][1].kp
+        assert kp[3] == pytest.approx(0.6 * talos.kp[3], rel=0.01) and kp[4] == pytest.approx(talos.kp[4], rel=0.01)
+        emulator.temperature[3] = 85.0
+        tick(hw, clock, hold(talos, state))
+        assert hw.state is LifecycleState.FAULT and hw.interventions["temperature_fault"] == 1
+        assert np.all(emulator.received[-1][1].kp == 0)
+        with pytest.raises(LifecycleError):
+            hw.write(hold(talos, state))
+        emulator.temperature[3] = 40.0  # cooled down: an explicit reset brings it back
+        hw.reset()
+        hw.activate()
+        state = tick(hw, clock, hold(talos, hw.read()))
+        assert hw.state is LifecycleState.ACTIVE and emulator.received[-1][1].kp[3] > 0
+    finally:
+        hw.close()
+        emulator.close()
+
+
+@pytest.mark.parametrize("kind", ["mit-can-emulated", "dynamixel-emulated"])
+def test_balance_demo_over_an_emulated_bus(kind, tmp_path):
+    assert main(["balance", "--hw", kind, "--out", str(tmp_path)]) == 0
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert report["fell"] is False and report["hand_error_m"] < 0.01
+    assert report["safety"]["interventions"] == {} and report["safety"]["state"] == "active"
