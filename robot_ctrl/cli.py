@@ -235,6 +235,17 @@ def _crowd_gait_profile(args: argparse.Namespace) -> int:
     return 0
 
 
+def _report(args: argparse.Namespace) -> int:
+    from robot_ctrl.eval.html_report import render_report
+
+    try:
+        path = render_report(args.dir)
+    except FileNotFoundError as exc:
+        raise ConfigError(f"report: {exc}") from exc
+    print(f"wrote {path}")
+    return 0
+
+
 def _robots(args: argparse.Namespace) -> int:
     from robot_ctrl.robot.model import load_robot
 
@@ -352,6 +363,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--cycles", type=int, default=6, help="gait cycles averaged")
     p.add_argument("--out", type=Path, help="output JSON (default models/<robot>_gait_profile.json)")
     p.set_defaults(run=_crowd_gait_profile)
+
+    p = sub.add_parser("report", help="render DIR/report.json (+ timeseries) as DIR/report.html",
+                       description="Self-contained HTML: metrics table, ZMP reference vs measured, top view of CoM "
+                                   "and footprints, joint torque peaks against limits, GRF against time.")
+    p.add_argument("dir", type=Path, help="a run's output folder (--out of balance or walk)")
+    p.set_defaults(run=_report)
 
     p = sub.add_parser("robots", help="list the robot configs (and convert their MJCF with --convert)")
     p.add_argument("--convert", action="store_true", help="convert each robot to its cached MJCF and print the path")

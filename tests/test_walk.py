@@ -23,6 +23,19 @@ def test_one_metre_walk_does_not_fall(tmp_path):
     for step in steps:  # realized footsteps land within 2 cm of the plan
         assert np.linalg.norm(np.subtract(step["planned"][:2], step["realized"][:2])) < 0.02
     assert report["wpg_solve_ms_median"] > 0
+    # Balance metrics (thesis 3.8): ZMP tracking in single support, GRF against 1.4 × weight.
+    assert 0 < report["zmp_error_rms_m"]["x"] < 0.06 and 0 < report["zmp_error_rms_m"]["y"] < 0.03
+    assert report["zmp_error_max_m"]["x"] >= report["zmp_error_rms_m"]["x"]
+    assert set(report["zmp_lateral_std_m"]) == {"left", "right"}
+    assert len(report["step_length_error_m"]) == len(steps) - 1
+    assert max(abs(e) for e in report["step_length_error_m"]) < 0.02
+    assert report["grf_limit_n"] == pytest.approx(1.4 * 9.81 * 90.27, rel=0.01)
+    assert max(report["peak_grf_n"].values()) < report["grf_limit_n"] and not any(report["grf_over_limit"].values())
+    assert report["com_error_rms_m"] < 0.02
+    # The HTML report: four embedded figures, nothing fetched from the network.
+    assert main(["report", str(tmp_path)]) == 0
+    page = (tmp_path / "report.html").read_text()
+    assert page.count("data:image/png;base64,") == 4 and "http" not in page
 
 
 def test_arc_geometry():

@@ -57,5 +57,6 @@ class RunMetrics:
             "peak_torque_ratio": float(ratios[worst]),
             "peak_torque_joint": self.joint_names[worst],
             "peak_torque_nm": {n: round(float(v), 3) for n, v in zip(self.joint_names, self.peak_torque)},
+            "torque_limit_nm": {n: round(float(v), 3) for n, v in zip(self.joint_names, self.effort)},
             "peak_grf_n": {side: round(v, 2) for side, v in self.peak_grf.items()},
         }

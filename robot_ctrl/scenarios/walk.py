@@ -17,6 +17,7 @@ from robot_ctrl.control.path_follower import PathFollower, WalkGoal
 from robot_ctrl.control.walking_controller import WalkingController
 from robot_ctrl.eval import FallCriterion, RunMetrics
 from robot_ctrl.eval.report_file import write_report
+from robot_ctrl.eval.walk_log import GRF_LIMIT_RATIO, WalkLog, step_length_errors
 from robot_ctrl.hw.adapter import HardwareAdapter
 from robot_ctrl.robot.model import RobotModel
 from robot_ctrl.wpg.footstep import Footstep, rotation, wrap_angle, yaw_of
@@ -40,7 +41,7 @@ def relative(pose: np.ndarray, origin: np.ndarray) -> np.ndarray:
 
 def run_walk(robot: RobotModel, hw: HardwareAdapter, goal: WalkGoal, params: WalkParams | None = None,
              stabilize: bool = True, out_dir: Path | None = None, log: Callable[[str], None] = print,
-             control_dt: float = 0.005) -> dict:
+             control_dt: float = 0.005, grf_limit_ratio: float = GRF_LIMIT_RATIO) -> dict:
     hw.configure()
     hw.activate()
     state = hw.read()
@@ -56,6 +57,8 @@ def run_walk(robot: RobotModel, hw: HardwareAdapter, goal: WalkGoal, params: Wal
     follower = PathFollower(goal, start, tolerance=(0.03, 0.03))
     goal_base = follower.world_pose(goal.pose_at(goal.length))
     metrics = RunMetrics(robot.joint_names, robot.effort, FallCriterion(float(state.base_pos[2])))
+    foot = robot.config.foot
+    log_series = WalkLog(robot.mass * 9.81, start, (foot.length, foot.width), grf_limit_ratio)
     inside = contact_samples = 0
     footsteps: list[dict] = []
     pending: list[tuple[float, object]] = []
@@ -79,6 +82,7 @@ def run_walk(robot: RobotModel, hw: HardwareAdapter, goal: WalkGoal, params: Wal
                 elif not follower.done:
                     wpg.set_velocity(*velocity)
             command = controller.step(state)
+            _record(log_series, controller, state)
             hw.write(command)
             state = hw.read()
             metrics.update(state)
@@ -130,6 +134,8 @@ def run_walk(robot: RobotModel, hw: HardwareAdapter, goal: WalkGoal, params: Wal
         stood_s=round(state.t - stood_since, 3) if stood_since is not None else 0.0,
         zmp_in_support_ratio=round(inside / max(contact_samples, 1), 5),
         footsteps=footsteps,
+        step_length_error_m=step_length_errors(footsteps),
+        **log_series.metrics(),
         wpg_solve_ms_median=round(float(np.median(wpg.solve_times)) * 1e3, 4),
         wpg_solve_ms_p99=round(float(np.percentile(wpg.solve_times, 99)) * 1e3, 4),
         stabilizer=stabilize,
@@ -140,4 +146,18 @@ def run_walk(robot: RobotModel, hw: HardwareAdapter, goal: WalkGoal, params: Wal
         f"{report['commanded_base_xy_yaw']}  zmp_in_support_ratio {report['zmp_in_support_ratio']}  "
         f"peak_torque_ratio {report['peak_torque_ratio']:.3f}  steps {len(footsteps)}  rtf {report['rtf']}")
     write_report(report, out_dir, log)
+    if out_dir is not None:
+        log(f"wrote {log_series.save(out_dir)}")
     return report
+
+
+def _record(series: WalkLog, controller: WalkingController, state) -> None:
+    """Log the tick's plan against the state the controller just estimated."""
+    ref, est = controller.reference, controller.estimate
+    stance = next(s for s in ("left", "right") if ref.in_contact[s]) if ref.phase == "single" else None
+    sole = None
+    if stance is not None:
+        pose = est.soles[stance]
+        sole = (pose.translation[:2], yaw_of(pose.rotation))
+    grf = {side: float(w[2]) for side, w in (state.foot_wrench or {}).items()}
+    series.record(state.t, ref.zmp, est.zmp, ref.com, est.com, controller.wpg.heading, stance, sole, grf)
