@@ -33,6 +33,7 @@ bench: $(BENCH_STAMP)
 	$(BENCH_VENV)/bin/python benchmarks/bench_wpg.py
 	$(BENCH_VENV)/bin/python benchmarks/bench_loop.py
 	$(BENCH_VENV)/bin/python benchmarks/bench_crowd.py
+	$(BENCH_VENV)/bin/python benchmarks/bench_dynfilter.py
 
 clean:
 	rm -rf $(VENV) $(BENCH_VENV) runs

@@ -45,7 +45,7 @@ def _walk(args: argparse.Namespace) -> int:
     _check_viewer(args)
     robot = load_robot(args.robot)
     report = run_walk(robot, MujocoBackend(robot, viewer=args.viewer), goal, stabilize=not args.no_stabilizer,
-                      out_dir=args.out)
+                      out_dir=args.out, arms=args.arms, dynfilter=args.dynfilter, dynfilter_passes=args.dynfilter_passes)
     return 1 if report["fell"] else 0
 
 
@@ -283,6 +283,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--lateral", type=float, default=0.0, help="side-step distance [m], + left, - right")
     p.add_argument("--speed", type=float, default=0.25, help="walking speed [m/s], 0.02..0.5")
     p.add_argument("--no-stabilizer", action="store_true", help="open loop: no DCM/ZMP balance feedback")
+    p.add_argument("--arms", choices=("none", "swing"), default="none",
+                   help="upper body: half-sitting, or both elbows swinging ±0.5 rad at 1 Hz")
+    p.add_argument("--dynfilter", choices=("off", "legs", "full"), default="off",
+                   help="dynamic filter: off, legs only (upper body frozen in its preview) or full body")
+    p.add_argument("--dynfilter-passes", type=int, default=2, help="filter passes per WPG sample (1..10)")
     p.add_argument("--viewer", action="store_true", help="open the MuJoCo viewer (needs a display)")
     p.add_argument("--out", type=Path, help="write DIR/report.json")
     p.set_defaults(run=_walk)

@@ -56,3 +56,25 @@ def test_arc_geometry():
 def test_walk_rejects_bad_arguments(args, message, capsys):
     assert main(["walk", *args]) == 2
     assert re.search(message, capsys.readouterr().err)
+
+
+def test_arm_swing_walk_with_the_full_dynamic_filter(tmp_path):
+    assert main(["walk", "--distance", "1.0", "--arms", "swing", "--dynfilter", "full", "--out", str(tmp_path)]) == 0
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert report["fell"] is False and report["dynfilter"] == "full" and report["arms"] == "swing"
+    assert report["zmp_error_rms_m"]["x"] < 0.035 and report["final_position_error_m"] < 0.05
+
+
+def test_arm_swing_starts_smoothly_and_stays_in_limits(talos):
+    from robot_ctrl.control.arm_swing import DEFAULT_JOINTS, ArmSwing
+
+    base = np.array(talos.config.half_sitting)
+    swing = ArmSwing.for_joints(DEFAULT_JOINTS, talos.joint_names, base, talos.lower, talos.upper)
+    np.testing.assert_allclose(swing(0.0), np.clip(base, talos.lower, talos.upper))
+    elbow = talos.joint_names.index("arm_left_4_joint")
+    assert abs(swing(0.001)[elbow] - swing(0.0)[elbow]) < 1e-5  # no velocity step at the start
+    assert swing(1.25)[elbow] == pytest.approx(base[elbow] + 0.5)  # full amplitude after the ramp
+    others = [i for i in range(talos.nj) if talos.joint_names[i] not in DEFAULT_JOINTS]
+    np.testing.assert_allclose(swing(1.7)[others], np.clip(base, talos.lower, talos.upper)[others])
+    with pytest.raises(ValueError, match="not joints of the robot"):
+        ArmSwing.for_joints(("arm_left_9_joint",), talos.joint_names, base, talos.lower, talos.upper)

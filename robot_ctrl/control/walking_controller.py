@@ -2,7 +2,8 @@
 
 Each tick: when the tick reaches the end of the pattern generator's current sample, it solves its
 MPC for the next one (samples need not be a whole number of ticks: the gait's time scale can
-stretch them); the plan is sampled at the tick; the balance stabilizer corrects the CoM reference from the measured state;
+stretch them) and the dynamic filter corrects the CoM plan for the whole-body dynamics; the plan
+is sampled at the tick; the balance stabilizer corrects the CoM reference from the measured state;
 the IK (feet, then CoM + waist, then posture) integrates the reference configuration; the command
 carries the quasi-static torque feedforward (with the LIP's d'Alembert force) for the planned contact
 split.
@@ -10,12 +11,15 @@ split.
 
 from __future__ import annotations
 
+from typing import Callable
+
 import numpy as np
 import pinocchio as pin
 
 from robot_ctrl.control.static_feedforward import static_torques, weight_shares
 from robot_ctrl.control.estimator import StateEstimator
 from robot_ctrl.control.stabilizer import DcmStabilizer
+from robot_ctrl.dynfilter.dynamic_filter import DynamicFilter
 from robot_ctrl.hw.types import JointCommand, JointState
 from robot_ctrl.robot.model import RobotModel, configuration
 from robot_ctrl.sot.whole_body_ik import SIDES, WholeBodyIK
@@ -30,7 +34,11 @@ def sole_footstep(side: str, pose: pin.SE3) -> Footstep:
 
 class WalkingController:
     def __init__(self, robot: RobotModel, state: JointState, params: WalkParams | None = None,
-                 control_dt: float = 0.005, stabilizer: DcmStabilizer | None = None):
+                 control_dt: float = 0.005, stabilizer: DcmStabilizer | None = None,
+                 upper_body: Callable[[float], np.ndarray] | None = None, dynfilter: str = "off",
+                 dynfilter_passes: int = 2):
+        """``upper_body(t)``: posture-task target (joint order, rad) at time t, default the
+        half-sitting posture; ``dynfilter``: ``off``, ``legs`` or ``full`` (``DynamicFilter``)."""
         self.robot = robot
         self.dt = control_dt
         q0 = configuration(robot, state.base_pos, state.base_quat_xyzw, state.q)
@@ -51,6 +59,9 @@ class WalkingController:
             raise ValueError(f"control_dt = {control_dt} s must not exceed WalkParams.sample_time = "
                              f"{self.params.sample_time} s")
         self.stabilizer = stabilizer if stabilizer is not None else DcmStabilizer(self.params.com_height)
+        default_posture = self.ik.posture.target.copy()
+        self.upper_body = upper_body if upper_body is not None else (lambda t: default_posture)
+        self.dynfilter = DynamicFilter(robot, self.params.horizon, self.params.com_height, dynfilter, dynfilter_passes)
         self.estimator = StateEstimator(robot)
         self.estimate = None
         self._statics = robot.pin.createData()
@@ -63,9 +74,12 @@ class WalkingController:
         return self.k * self.dt >= self.wpg.t - 1e-9
 
     def step(self, state: JointState) -> JointCommand:
+        t = self.k * self.dt
         if self.sample_due:
             self.wpg.update()
-        tau = self.k * self.dt - self.wpg.sample_start
+            self.dynfilter.update(self.wpg, self.ik.q, self.com_z, self.sole_height, self.upper_body,
+                                  self.wpg.sample_start)
+        tau = t - self.wpg.sample_start
         self.k += 1
         ref = self.wpg.sample(tau)
         self.reference = ref
@@ -76,8 +90,11 @@ class WalkingController:
             ik.feet[side].set_target(pin.SE3(pin.utils.rpyToMatrix(0.0, 0.0, ref.foot_yaw[side]), pos),
                                      np.concatenate([lin, [0.0, 0.0, wz]]))
         self.estimate = self.estimator.estimate(state)
-        correction = self.stabilizer.correction(self.estimate, ref.com, ref.com_velocity, ref.zmp, self.dt)
-        ik.com.set_target(np.array([*(ref.com + correction), self.com_z]), np.array([*ref.com_velocity, 0.0]))
+        offset, offset_velocity = self.dynfilter.offset(tau)
+        com, com_velocity = ref.com + offset, ref.com_velocity + offset_velocity
+        correction = self.stabilizer.correction(self.estimate, com, com_velocity, ref.zmp, self.dt)
+        ik.com.set_target(np.array([*(com + correction), self.com_z]), np.array([*com_velocity, 0.0]))
+        ik.posture.set_target(self.upper_body(t))
         waist_yaw = np.arctan2(sum(np.sin(ref.foot_yaw[s]) for s in SIDES), sum(np.cos(ref.foot_yaw[s]) for s in SIDES))
         ik.waist.set_target(pin.SE3(pin.utils.rpyToMatrix(0.0, 0.0, waist_yaw), np.zeros(3)))
         v = ik.step(self.dt)

@@ -13,6 +13,7 @@ from typing import Callable
 
 import numpy as np
 
+from robot_ctrl.control.arm_swing import DEFAULT_JOINTS, ArmSwing
 from robot_ctrl.control.path_follower import PathFollower, WalkGoal
 from robot_ctrl.control.walking_controller import WalkingController
 from robot_ctrl.eval import FallCriterion, RunMetrics
@@ -20,6 +21,7 @@ from robot_ctrl.eval.report_file import write_report
 from robot_ctrl.eval.walk_log import GRF_LIMIT_RATIO, WalkLog, step_length_errors
 from robot_ctrl.hw.adapter import HardwareAdapter
 from robot_ctrl.robot.model import RobotModel
+from robot_ctrl.sot.joint_limits import JointLimits
 from robot_ctrl.wpg.footstep import Footstep, rotation, wrap_angle, yaw_of
 from robot_ctrl.wpg.params import WalkParams
 
@@ -41,13 +43,25 @@ def relative(pose: np.ndarray, origin: np.ndarray) -> np.ndarray:
 
 def run_walk(robot: RobotModel, hw: HardwareAdapter, goal: WalkGoal, params: WalkParams | None = None,
              stabilize: bool = True, out_dir: Path | None = None, log: Callable[[str], None] = print,
-             control_dt: float = 0.005, grf_limit_ratio: float = GRF_LIMIT_RATIO) -> dict:
+             control_dt: float = 0.005, grf_limit_ratio: float = GRF_LIMIT_RATIO, arms: str = "none",
+             dynfilter: str = "off", dynfilter_passes: int = 2) -> dict:
+    """Walk ``goal`` and report. ``arms``: ``none`` (half-sitting arms) or ``swing`` (``ArmSwing``:
+    elbows ±0.5 rad at 1 Hz); ``dynfilter``: ``off``, ``legs`` or ``full`` (``DynamicFilter``)."""
+    if arms not in ("none", "swing"):
+        raise ValueError(f"arms {arms!r} is not one of none, swing")
     hw.configure()
     hw.activate()
     state = hw.read()
     if state.base_pos is None or state.foot_wrench is None:
         raise ValueError("walking needs a backend that reports the base pose and the foot wrenches")
-    controller = WalkingController(robot, state, params, control_dt)
+    upper_body = None
+    if arms == "swing":
+        limits = JointLimits.from_robot(robot)
+        upper_body = ArmSwing.for_joints(DEFAULT_JOINTS, robot.joint_names,
+                                         np.clip(robot.config.half_sitting, limits.q_min, limits.q_max),
+                                         limits.q_min, limits.q_max)
+    controller = WalkingController(robot, state, params, control_dt, upper_body=upper_body, dynfilter=dynfilter,
+                                   dynfilter_passes=dynfilter_passes)
     controller.stabilizer.enabled = stabilize
     wpg = controller.wpg
     start = base_pose(state)
@@ -139,6 +153,9 @@ def run_walk(robot: RobotModel, hw: HardwareAdapter, goal: WalkGoal, params: Wal
         wpg_solve_ms_median=round(float(np.median(wpg.solve_times)) * 1e3, 4),
         wpg_solve_ms_p99=round(float(np.percentile(wpg.solve_times, 99)) * 1e3, 4),
         stabilizer=stabilize,
+        arms=arms,
+        dynfilter=dynfilter,
+        dynfilter_passes=dynfilter_passes if dynfilter != "off" else 0,
         rtf=round(metrics.t / wall, 3),
         control_rate_hz=round(1.0 / control_dt, 3),
     )

@@ -74,6 +74,11 @@ class WholeBodyIK:
             self._stale = False
         return self.data.oMf[self.robot.frame_ids[role]].copy()
 
+    def set_configuration(self, q: np.ndarray) -> None:
+        """Restart the integration from ``q`` (Pinocchio configuration, base in the world frame)."""
+        self.q = np.array(q, dtype=float)
+        self._stale = True
+
     def com_position(self) -> np.ndarray:
         return pin.centerOfMass(self.robot.pin, self.data, self.q)
 

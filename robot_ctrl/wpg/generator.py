@@ -51,6 +51,17 @@ class WalkReference:
     phase: str
 
 
+@dataclass(frozen=True)
+class PreviewSample:
+    """The plan at one horizon sample (world frame)."""
+
+    t: float  # [s] after the start of the last solved sample (physical time)
+    com: np.ndarray  # (2,) [m]
+    zmp: np.ndarray  # (2,) cart-table ZMP [m]
+    feet: dict[str, tuple[np.ndarray, float]]  # side -> sole position (3,) [m], yaw [rad]
+    single_support: bool
+
+
 @dataclass
 class Touchdown:
     """A footstep when it lands: the plan's target; the controller adds where the foot really was."""
@@ -224,6 +235,7 @@ class WalkingPatternGenerator:
     def problem(self) -> MpcProblem:
         p = self.p
         segments, landings = self._segments()
+        self._planned_segments = segments
         self._landing_yaws = [foot.yaw for _, foot, _ in landings]
         half = np.array([p.foot_length / 2 - p.zmp_margin, p.foot_width / 2 - p.zmp_margin])
         supports = []
@@ -291,6 +303,7 @@ class WalkingPatternGenerator:
         if self.phase == "single" and self.phase_time < self.p.single_support - self.p.swing_freeze - 1e-9:
             self.swing.retarget(self.phase_time, Footstep(other(self.stance), *sol.footsteps[:2], self._landing_yaws[0]))
         self._sample_state = (self.com_x.copy(), self.com_y.copy(), float(sol.jerk_x[0]), float(sol.jerk_y[0]))
+        self._preview_segments = self._planned_segments
         T = self._last_duration = self.sample_duration
         self._sample_phase = (self.phase, self.phase_time, self.stance, self.swing, self.time_scale, self.steps_started)
         self.com_x = com_at(self.com_x, sol.jerk_x[0], T)
@@ -334,6 +347,41 @@ class WalkingPatternGenerator:
         self.swing = SwingTrajectory(self.feet[swing], self.p.single_support, self.p.swing_apex)
 
     # Sampling ---------------------------------------------------------------------------------
+    def preview(self) -> list[PreviewSample]:
+        """The last solved plan at the horizon's sample boundaries ``j T`` (j = 0..N) after the start
+        of the last solved sample: CoM, cart-table ZMP and feet (world frame). Feet of steps after
+        the current swing follow a rest-to-rest quintic from lift-off to the MPC's footstep with the
+        swing apex bump (the trajectory :class:`SwingTrajectory` starts with); the current swing is
+        its own trajectory."""
+        sol, p = self.solution, self.p
+        cx, cy, _, _ = self._sample_state
+        h_g = p.com_height / 9.81
+        phase, phase_time, stance, swing, scale, _ = self._sample_phase
+        segments = self._preview_segments
+        out = []
+        for j in range(p.horizon + 1):
+            if j == 0:
+                com, zmp = np.array([cx[0], cy[0]]), np.array([cx[0] - h_g * cx[2], cy[0] - h_g * cy[2]])
+            else:
+                com, zmp = sol.com[j - 1], sol.zmp[j - 1]
+            t = j * p.sample_time  # nominal
+            start = 0.0
+            for k, seg in enumerate(segments):
+                if t <= start + seg.duration + 1e-9 or k == len(segments) - 1:
+                    break
+                start += seg.duration
+            feet = {f.side: (np.array([*f.position(sol.footsteps), 0.0]), f.yaw) for f in seg.feet}
+            if len(seg.feet) == 1:
+                side = other(seg.feet[0].side)
+                if k == 0 and phase == "single":
+                    pos, yaw, _, _ = swing.at(phase_time + t)
+                    feet[side] = (pos, yaw)
+                else:
+                    feet[side] = _swing_point(segments, k, side, sol.footsteps, (t - start) / seg.duration,
+                                              p.swing_apex, self.feet[side])
+            out.append(PreviewSample(j * p.sample_time * scale, com, zmp, feet, len(seg.feet) == 1))
+        return out
+
     def gait_phase(self, tau: float) -> float | None:
         """Gait phase [rad] ``tau`` physical seconds after the start of the last solved sample: π per
         step, counted from the start of the first single support (2π per gait cycle of two steps);
@@ -367,6 +415,25 @@ class WalkingPatternGenerator:
             zmp=np.array([sx[0] - h_g * sx[2], sy[0] - h_g * sy[2]]),
             foot_position=positions, foot_yaw=yaws, foot_velocity=velocities, in_contact=contact, phase=phase,
         )
+
+
+def _swing_point(segments: list[_Segment], k: int, side: str, F: np.ndarray, s: float, apex: float,
+                 fallback: Footstep) -> tuple[np.ndarray, float]:
+    """Swing foot ``side`` at fraction ``s`` of single-support segment ``k``: from where it stood in
+    the segment before to where it lands in the segment after (min-jerk in the plane and yaw,
+    ``16 apex s²(1 − s)²`` in height)."""
+    def where(seg):
+        return next(((f.position(F), f.yaw) for f in seg.feet if f.side == side), None)
+
+    lift = where(segments[k - 1]) if k > 0 else None
+    land = where(segments[k + 1]) if k + 1 < len(segments) else None
+    lift = lift or (fallback.xy, fallback.yaw)
+    land = land or lift
+    s = min(max(s, 0.0), 1.0)
+    blend = s**3 * (10 - 15 * s + 6 * s * s)
+    xy = lift[0] + blend * (land[0] - lift[0])
+    yaw = lift[1] + blend * wrap_angle(land[1] - lift[1])
+    return np.array([xy[0], xy[1], 16.0 * apex * s * s * (1 - s) ** 2]), float(yaw)
 
 
 def _polygon(seg: _Segment, s: float, half: np.ndarray) -> tuple[np.ndarray, np.ndarray, FootRef]:

@@ -1,0 +1,46 @@
+"""ArmSwing: an upper-body reference that swings joints sinusoidally around a base posture, the
+fast upper-body motion used to exercise the dynamic filter (issue: walk with ``--arms swing``).
+
+``posture(t) = base + r(t) amplitude · sin(2π f t)`` on the swing joints (all in phase), base
+elsewhere, with ``r`` a smooth ramp from 0 to 1 over the first second (no velocity step at the
+start); joint order of the robot config, radians. Talos has no shoulder pitch joint (its shoulder is yaw,
+roll, yaw), so the default swings the elbows (``arm_*_4_joint``, pitch) forward and back: at
+0.5 rad and 1 Hz the forearms' inertial force moves the ZMP by about 2 cm. The swing is clipped
+into the joint limits given.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+DEFAULT_JOINTS = ("arm_left_4_joint", "arm_right_4_joint")
+
+
+@dataclass(frozen=True)
+class ArmSwing:
+    base: np.ndarray  # (nj,) posture [rad]
+    joints: np.ndarray  # indices of the swinging joints
+    lower: np.ndarray  # (nj,) limits the posture is clipped into [rad]
+    upper: np.ndarray
+    amplitude: float = 0.5  # [rad]
+    frequency: float = 1.0  # [Hz]
+
+    @classmethod
+    def for_joints(cls, names: tuple[str, ...], joint_names: tuple[str, ...], base, lower, upper,
+                   amplitude: float = 0.5, frequency: float = 1.0) -> "ArmSwing":
+        missing = [n for n in names if n not in joint_names]
+        if missing:
+            raise ValueError(f"swing joints {missing} are not joints of the robot")
+        if not (np.isfinite(amplitude) and 0 < amplitude <= 1.5 and np.isfinite(frequency) and 0 < frequency <= 3):
+            raise ValueError(f"arm swing amplitude = {amplitude} rad must be in (0, 1.5] and frequency = "
+                             f"{frequency} Hz in (0, 3]")
+        return cls(np.asarray(base, dtype=float), np.array([joint_names.index(n) for n in names]),
+                   np.asarray(lower), np.asarray(upper), amplitude, frequency)
+
+    def __call__(self, t: float) -> np.ndarray:
+        q = self.base.copy()
+        s = min(max(t, 0.0), 1.0)
+        q[self.joints] += s * s * (3 - 2 * s) * self.amplitude * np.sin(2 * np.pi * self.frequency * t)
+        return np.clip(q, self.lower, self.upper)

@@ -1,0 +1,106 @@
+"""DynamicFilter: corrects the CoM plan for the dynamics the linear inverted pendulum leaves out
+(thesis 3.8.1-3.8.2, after Kajita et al. 2003 and Stasse et al. 2008).
+
+At every pattern-generator sample, for the plan over the horizon (CoM and feet from the WPG's
+preview, upper body from its reference), each pass:
+
+1. solves the whole-body motion with a stack-of-tasks IK of its own, one Newton step per horizon
+   sample (gain 1/T), from the controller's current reference configuration;
+2. computes its multibody ZMP (``multibody_zmp``: Pinocchio inverse dynamics, finite differences);
+3. takes the error against the WPG's reference ZMP and updates the CoM offset by preview control
+   (``PreviewCorrection``), a Newton-like step (thesis: "a kind of Newton-Raphson iteration").
+
+``passes`` repeats 1-3 with the corrected CoM. Modes: ``off`` (no correction), ``legs`` (the upper
+body is frozen at its current reference over the horizon, the thesis's magenta curve) and
+``full`` (the planned upper-body motion is included). The controller adds the offset (and its
+velocity) to the CoM reference it gives the IK; the reference ZMP is unchanged (it is what the
+real ZMP should follow).
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+import pinocchio as pin
+
+from robot_ctrl.dynfilter.multibody_zmp import trajectory_zmp
+from robot_ctrl.dynfilter.preview_correction import PreviewCorrection
+from robot_ctrl.robot.model import RobotModel
+from robot_ctrl.sot.whole_body_ik import SIDES, WholeBodyIK
+from robot_ctrl.wpg.generator import WalkingPatternGenerator
+
+MODES = ("off", "legs", "full")
+DOUBLE_SUPPORT_WEIGHT = 0.1  # of the ZMP error in double-support samples (see PreviewCorrection)
+
+
+class DynamicFilter:
+    def __init__(self, robot: RobotModel, horizon: int, com_height: float, mode: str = "full", passes: int = 2):
+        if mode not in MODES:
+            raise ValueError(f"dynfilter mode {mode!r} is not one of {', '.join(MODES)}")
+        if not (isinstance(passes, int) and 1 <= passes <= 10):
+            raise ValueError(f"dynfilter passes = {passes!r} must be an integer in [1, 10]")
+        self.robot = robot
+        self.mode = mode
+        self.passes = passes
+        self.correction = PreviewCorrection(horizon, com_height)
+        self._data = robot.pin.createData()
+        self._ik: WholeBodyIK | None = None
+        self._ik_T: float | None = None
+        self._last_T: float | None = None
+        self.last_error: np.ndarray | None = None  # (N − 1, 2) multibody − reference ZMP of the last pass
+        self.pass_rms: list[float] = []  # weighted RMS of that error at each pass of the last update [m]
+
+    def update(self, wpg: WalkingPatternGenerator, q_ref: np.ndarray, com_z: float, sole_height: float,
+               posture: Callable[[float], np.ndarray], t0: float) -> None:
+        """Refine the CoM offset for the sample the WPG just solved (starting at time ``t0``).
+        ``q_ref``: the IK's current reference configuration; ``posture(t)``: the upper-body
+        (posture task) target at time t; ``com_z``, ``sole_height``: the controller's constants."""
+        if self.mode == "off":
+            return
+        T = wpg.sample_duration
+        if self._last_T is not None:
+            self.correction.advance(self._last_T)
+        self._last_T = T
+        preview = wpg.preview()
+        reference = np.array([s.zmp for s in preview])
+        weights = np.array([1.0 if s.single_support else DOUBLE_SUPPORT_WEIGHT for s in preview[1:]])
+        frozen = posture(t0)
+        self.pass_rms = []
+        for _ in range(self.passes):
+            offsets = self.correction.offsets(T)
+            qs = self._whole_body(preview, offsets, q_ref, com_z, sole_height,
+                                  lambda t: posture(t0 + t) if self.mode == "full" else frozen, T)
+            zmp = trajectory_zmp(self.robot.pin, self._data, qs, T)
+            error = zmp - reference[1:-1]  # samples 1..N−1
+            self.last_error = error
+            w = weights[:-1, None]
+            self.pass_rms.append(float(np.sqrt(np.sum((w * error) ** 2) / (2 * np.sum(w**2)))))
+            self.correction.newton_step(np.vstack([error, error[-1:]]), T, weights)  # sample N holds N−1's error
+
+    def offset(self, tau: float) -> tuple[np.ndarray, np.ndarray]:
+        """CoM offset and its velocity (2,) ``tau`` seconds into the current sample."""
+        if self.mode == "off":
+            return np.zeros(2), np.zeros(2)
+        return self.correction.at(tau)
+
+    def _whole_body(self, preview, offsets, q_ref, com_z, sole_height, posture, T) -> list[np.ndarray]:
+        if self._ik is None or self._ik_T != T:  # gain 1/T: each step is a full Newton step
+            self._ik, self._ik_T = WholeBodyIK(self.robot, q_ref, gain=1.0 / T), T
+        ik = self._ik
+        ik.set_configuration(q_ref)
+        qs = []
+        for sample, offset in zip(preview, offsets):
+            for side in SIDES:
+                pos, yaw = sample.feet[side]
+                ik.feet[side].set_target(pin.SE3(pin.utils.rpyToMatrix(0.0, 0.0, yaw), pos + [0.0, 0.0, sole_height]))
+            yaw = np.arctan2(sum(np.sin(sample.feet[s][1]) for s in SIDES), sum(np.cos(sample.feet[s][1]) for s in SIDES))
+            ik.waist.set_target(pin.SE3(pin.utils.rpyToMatrix(0.0, 0.0, yaw), np.zeros(3)))
+            ik.com.set_target(np.array([*(sample.com + offset), com_z]))
+            ik.posture.set_target(posture(sample.t))
+            # Sample 0 starts from the controller's reference, which the stabilizer has moved off the
+            # plan: converge onto the plan first, so the trajectory does not begin with a jump.
+            for _ in range(1 if qs else 3):
+                ik.step(T)
+            qs.append(ik.q.copy())
+        return qs
