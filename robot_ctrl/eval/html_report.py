@@ -110,14 +110,16 @@ def _top_view(s, report) -> str:
         d = xy - [x0, y0]
         return np.stack([c * d[:, 0] + sn * d[:, 1], -sn * d[:, 0] + c * d[:, 1]], axis=1)
 
-    fig, ax = plt.subplots(figsize=(9, 5))
+    com = local(s["com_ref"])
+    span = np.ptp(com, axis=0) + 0.4
+    fig, ax = plt.subplots(figsize=(10, float(np.clip(10 * span[1] / span[0] + 1.6, 3.4, 8.0))))
     length, width = s["foot_size"]
     for step in report.get("footsteps", []):
         for key, style in (("planned", dict(fill=False, ec="C0", lw=1.2)), ("realized", dict(fill=False, ec="C3", lw=0.8, ls="--"))):
             x, y, yaw = step[key]
             corner = np.array([x, y]) + _rot(yaw) @ [-length / 2, -width / 2]
             ax.add_patch(patches.Rectangle(corner, length, width, angle=np.degrees(yaw), **style))
-    ax.plot(*local(s["com_ref"]).T, "C0", label="CoM planned")
+    ax.plot(*com.T, "C0", label="CoM planned")
     ax.plot(*local(s["com"]).T, "C3", lw=0.8, label="CoM measured")
     ax.plot([], [], "C0", lw=1.2, label="footprints planned")
     ax.plot([], [], "C3--", lw=0.8, label="footprints realized")
@@ -125,7 +127,7 @@ def _top_view(s, report) -> str:
     ax.autoscale_view()
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.4), ncol=4)
     return _png(fig)
 
 
