@@ -1,0 +1,1 @@
+"""Kinematic synthesis (pipeline step 1): learned movement primitives (anechoic mixtures)."""
