@@ -218,6 +218,7 @@ def test_temperature_derates_then_faults(talos):
         assert kp[3] == pytest.approx(0.6 * talos.kp[3], rel=0.01) and kp[4] == pytest.approx(talos.kp[4], rel=0.01)
         emulator.temperature[3] = 85.0
         tick(hw, clock, hold(talos, state))
+        hw.read()  # a Sync Write has no reply: this read's round trip orders it after the damping write
         assert hw.state is LifecycleState.FAULT and hw.interventions["temperature_fault"] == 1
         assert np.all(emulator.received[-1][1].kp == 0)
         with pytest.raises(LifecycleError):

@@ -21,7 +21,6 @@ safety layer then sees a stale state.
 
 from __future__ import annotations
 
-import math
 import time
 from typing import Callable
 
@@ -48,12 +47,7 @@ class DynamixelBackend(HardwareAdapter):
         self.watchdog_units = int(round(watchdog_ms / 20.0))
         self.clock = clock
         self.ids = [m.id for m in config.motors]
-        models = [config.models[m.model] for m in config.motors]
-        self._rad_per_unit = np.array([2 * math.pi / m["units_per_rev"] for m in models])
-        self._velocity_unit = np.array([m["velocity_unit"] for m in models])
-        self._torque_per_unit = np.array([m["current_unit"] * m["torque_constant"] for m in models])
-        self._kp_unit = np.array([m["kp_unit"] for m in models])
-        self._kd_unit = np.array([m["kd_unit"] for m in models])
+        self.units = dxl.RegisterUnits.of(config)
         self._p = np.zeros(self.nj)  # motor side
         self._v = np.zeros(self.nj)
         self._t = np.zeros(self.nj)
@@ -128,8 +122,8 @@ class DynamixelBackend(HardwareAdapter):
 
     def _send(self, cmd: JointCommand) -> None:
         p, v, kp, kd, t = self.config.to_motor(cmd.q, cmd.dq, cmd.kp, cmd.kd, cmd.tau_ff)
-        kp_reg = np.clip(np.round(kp / self._kp_unit), 0, 65535).astype(int)
-        kd_reg = np.clip(np.round(kd / self._kd_unit), 0, 65535).astype(int)
+        kp_reg = np.clip(np.round(kp / self.units.kp), 0, 65535).astype(int)
+        kd_reg = np.clip(np.round(kd / self.units.kd), 0, 65535).astype(int)
         gains = (tuple(kp_reg), tuple(kd_reg))
         if gains != self._gains:
             self._gain_write.clearParam()
@@ -137,10 +131,10 @@ class DynamixelBackend(HardwareAdapter):
                 self._gain_write.addParam(servo, dxl.to_bytes(d_gain, 2) + dxl.to_bytes(0, 2) + dxl.to_bytes(p_gain, 2))
             self._check(self._gain_write.txPacket(), "gain sync write")
             self._gains = gains
-        kp_q = kp_reg * self._kp_unit
+        kp_q = kp_reg * self.units.kp
         # Feedforward folded into the goal (see the module docstring); without stiffness, hold the goal.
-        goal = np.where(kp_q > 0, p + (t + kd_reg * self._kd_unit * v) / np.where(kp_q > 0, kp_q, 1.0), self._p)
-        raw = np.round(goal / self._rad_per_unit).astype(np.int64)
+        goal = np.where(kp_q > 0, p + (t + kd_reg * self.units.kd * v) / np.where(kp_q > 0, kp_q, 1.0), self._p)
+        raw = np.round(goal / self.units.position).astype(np.int64)
         self._goal.clearParam()
         for servo, value in zip(self.ids, raw):
             self._goal.addParam(servo, dxl.to_bytes(int(value), 4))
@@ -163,8 +157,8 @@ class DynamixelBackend(HardwareAdapter):
             velocity = dxl.to_signed(self._present.getData(servo, dxl.PRESENT + 2, 4), 4)
             position = dxl.to_signed(self._present.getData(servo, dxl.PRESENT + 6, 4), 4)
             self._temperature[i] = self._present.getData(servo, dxl.PRESENT + dxl.TEMPERATURE_OFFSET, 1)
-            self._t[i] = current * self._torque_per_unit[i]
-            self._v[i] = velocity * self._velocity_unit[i]
-            self._p[i] = position * self._rad_per_unit[i]
+            self._t[i] = current * self.units.torque[i]
+            self._v[i] = velocity * self.units.velocity[i]
+            self._p[i] = position * self.units.position[i]
         self._body = self.body_sensors() if self.body_sensors is not None else None
         self._time = self._body.t if self._body is not None else self.clock()

@@ -20,7 +20,6 @@ Temperature reports; tests raise it to exercise the safety layer. Every applied 
 
 from __future__ import annotations
 
-import math
 import os
 import select
 import threading
@@ -44,12 +43,7 @@ class DynamixelEmulator:
         n = len(config.motors)
         self.nj = n
         self._slot = {m.id: i for i, m in enumerate(config.motors)}
-        models = [config.models[m.model] for m in config.motors]
-        self._rad_per_unit = np.array([2 * math.pi / m["units_per_rev"] for m in models])
-        self._velocity_unit = np.array([m["velocity_unit"] for m in models])
-        self._torque_per_unit = np.array([m["current_unit"] * m["torque_constant"] for m in models])
-        self._kp_unit = np.array([m["kp_unit"] for m in models])
-        self._kd_unit = np.array([m["kd_unit"] for m in models])
+        self.units = dxl.RegisterUnits.of(config)
         self.torque_enable = np.zeros(n, dtype=int)
         self.gains = np.zeros((n, 3), dtype=int)  # D, I, P registers
         self.watchdog = np.zeros(n, dtype=int)  # register value; −1 when it expired
@@ -68,7 +62,7 @@ class DynamixelEmulator:
         self.plant.configure()
         self.plant.activate()
         self._state = self.plant.read()
-        self.goal[:] = np.round(self._motor_position() / self._rad_per_unit)
+        self.goal[:] = np.round(self._motor_position() / self.units.position)
         self._master, slave = os.openpty()
         tty.setraw(slave)
         self.port_name = os.ttyname(slave)
@@ -163,9 +157,9 @@ class DynamixelEmulator:
         table[dxl.BUS_WATCHDOG] = self.watchdog[i] & 0xFF
         table[dxl.GOAL_POSITION : dxl.GOAL_POSITION + 4] = dxl.to_bytes(int(self.goal[i]), 4)
         m, s = self.config.motors[i], self._state
-        current = round(m.direction * s.tau[i] / m.gear_ratio / self._torque_per_unit[i])
-        velocity = round(m.direction * m.gear_ratio * s.dq[i] / self._velocity_unit[i])
-        position = round(self._motor_position()[i] / self._rad_per_unit[i])
+        current = round(m.direction * s.tau[i] / m.gear_ratio / self.units.torque[i])
+        velocity = round(m.direction * m.gear_ratio * s.dq[i] / self.units.velocity[i])
+        position = round(self._motor_position()[i] / self.units.position[i])
         table[dxl.PRESENT : dxl.PRESENT + 2] = dxl.to_bytes(current, 2)
         table[dxl.PRESENT + 2 : dxl.PRESENT + 6] = dxl.to_bytes(velocity, 4)
         table[dxl.PRESENT + 6 : dxl.PRESENT + 10] = dxl.to_bytes(position, 4)
@@ -180,10 +174,10 @@ class DynamixelEmulator:
         c = self.config
         on = self.torque_enable.astype(float)
         stiff = on * (self.watchdog >= 0)  # an expired watchdog leaves damping only
-        goal = self.goal * self._rad_per_unit
+        goal = self.goal * self.units.position
         cmd = JointCommand(q=c.direction * (goal - c.zero) / c.gear, dq=np.zeros(self.nj),
-                           kp=stiff * self.gains[:, 2] * self._kp_unit * c.gear**2,
-                           kd=on * self.gains[:, 0] * self._kd_unit * c.gear**2, tau_ff=np.zeros(self.nj))
+                           kp=stiff * self.gains[:, 2] * self.units.kp * c.gear**2,
+                           kd=on * self.gains[:, 0] * self.units.kd * c.gear**2, tau_ff=np.zeros(self.nj))
         self.received.append((self._state.t, cmd))
         self.plant.write(cmd)
         self._state = self.plant.read()

@@ -15,6 +15,11 @@ Present Current 126, Present Velocity 128, Present Position 132, Present Tempera
 
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
 HEADER = bytes([0xFF, 0xFF, 0xFD, 0x00])
 INST_PING, INST_READ, INST_WRITE, INST_STATUS = 0x01, 0x02, 0x03, 0x55
 INST_SYNC_READ, INST_SYNC_WRITE = 0x82, 0x83
@@ -112,3 +117,22 @@ def to_signed(value: int, size: int) -> int:
 
 def to_bytes(value: int, size: int) -> bytes:
     return int(value & ((1 << (8 * size)) - 1)).to_bytes(size, "little")
+
+
+@dataclass(frozen=True)
+class RegisterUnits:
+    """SI value of one register unit for each servo of a bus config, from its models."""
+
+    position: np.ndarray  # [rad] per Goal/Present Position unit
+    velocity: np.ndarray  # [rad/s] per Present Velocity unit
+    torque: np.ndarray  # [N·m] per Present Current unit (current unit × torque constant)
+    kp: np.ndarray  # [N·m/rad] per Position P Gain unit
+    kd: np.ndarray  # [N·m·s/rad] per Position D Gain unit
+
+    @classmethod
+    def of(cls, config) -> "RegisterUnits":
+        models = [config.models[m.model] for m in config.motors]
+        return cls(np.array([2 * math.pi / m["units_per_rev"] for m in models]),
+                   np.array([m["velocity_unit"] for m in models]),
+                   np.array([m["current_unit"] * m["torque_constant"] for m in models]),
+                   np.array([m["kp_unit"] for m in models]), np.array([m["kd_unit"] for m in models]))
