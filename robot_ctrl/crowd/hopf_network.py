@@ -114,31 +114,20 @@ def simulate_crowd(coupling: GaitCoupling, duration: float, omega: float = 2 * n
             if turn:
                 psis[frame] = psi
 
-    def heading_vector(psi, dz):
-        return np.stack([dz * np.cos(psi), dz * np.sin(psi)], axis=-1)
+    def shifted(state, rate, h):  # state + h · rate, parts without dynamics (rate None) unchanged
+        return tuple(x if d is None else x + h * d for x, d in zip(state, rate))
 
     record(0)
     for i in range(steps):
-        k1 = rates(osc, z, psi)
-        if not walk:
-            k2 = rates(osc + 0.5 * dt * k1[0], z, psi)
-            k3 = rates(osc + 0.5 * dt * k2[0], z, psi)
-            k4 = rates(osc + dt * k3[0], z, psi)
-            osc = osc + dt / 6.0 * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0])
-        else:
-            stages = [k1]
-            for scale in (0.5, 0.5, 1.0):
-                prev = stages[-1]
-                stages.append(rates(osc + scale * dt * prev[0], z + scale * dt * prev[1],
-                                    psi + scale * dt * prev[2] if turn else psi))
-            weights = (1.0, 2.0, 2.0, 1.0)
-            osc = osc + dt / 6.0 * sum(w * s[0] for w, s in zip(weights, stages))
-            dz = sum(w * s[1] for w, s in zip(weights, stages)) / 6.0
-            # The floor position moves along the heading at the path speed (heading at the step's start).
-            p = p + dt * heading_vector(psi, dz)
-            z = z + dt * dz
-            if turn:
-                psi = psi + dt / 6.0 * sum(w * s[2] for w, s in zip(weights, stages))
+        state = (osc, z, psi)
+        stages = [rates(*state)]
+        for h in (0.5 * dt, 0.5 * dt, dt):
+            stages.append(rates(*shifted(state, stages[-1], h)))
+        increment = tuple(None if parts[0] is None else (parts[0] + 2 * parts[1] + 2 * parts[2] + parts[3]) / 6.0
+                          for parts in zip(*stages))
+        if walk:  # the floor position moves along the heading at the path speed (heading at the step's start)
+            p = p + dt * np.stack([increment[1] * np.cos(psi), increment[1] * np.sin(psi)], axis=-1)
+        osc, z, psi = shifted(state, increment, dt)
         if (i + 1) % record_every == 0:
             record((i + 1) // record_every)
     times = np.arange(frames) * dt * record_every

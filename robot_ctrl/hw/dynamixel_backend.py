@@ -112,12 +112,7 @@ class DynamixelBackend(HardwareAdapter):
     def _read(self) -> JointState:
         self._sync_read()
         q, dq, tau = self.config.to_joint(self._p, self._v, self._t)
-        fields = {}
-        if self._body is not None:
-            b = self._body
-            fields = dict(base_pos=b.base_pos, base_quat_xyzw=b.base_quat_xyzw, base_linvel=b.base_linvel,
-                          base_angvel=b.base_angvel, base_linacc=b.base_linacc, foot_wrench=b.foot_wrench,
-                          floor_contacts=b.floor_contacts)
+        fields = self._body.body_fields() if self._body is not None else {}
         return JointState(t=self._time, q=q, dq=dq, tau=tau, temperature=self._temperature.copy(), **fields)
 
     def _send(self, cmd: JointCommand) -> None:

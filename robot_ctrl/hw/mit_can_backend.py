@@ -90,12 +90,7 @@ class MitCanBackend(HardwareAdapter):
 
     def _read(self) -> JointState:
         q, dq, tau = self.config.to_joint(self._p, self._v, self._t)
-        body = self._body
-        fields = {}
-        if body is not None:
-            fields = dict(base_pos=body.base_pos, base_quat_xyzw=body.base_quat_xyzw, base_linvel=body.base_linvel,
-                          base_angvel=body.base_angvel, base_linacc=body.base_linacc, foot_wrench=body.foot_wrench,
-                          floor_contacts=body.floor_contacts)
+        fields = self._body.body_fields() if self._body is not None else {}
         return JointState(t=self._time if self._time is not None else 0.0, q=q, dq=dq, tau=tau, **fields)
 
     def _send_commands(self, cmd: JointCommand) -> None:

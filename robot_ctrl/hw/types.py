@@ -59,6 +59,13 @@ class JointState:
     floor_contacts: tuple[str, ...] = field(default=())
     temperature: np.ndarray | None = None
 
+    def body_fields(self) -> dict:
+        """The fields measured by body sensors (base pose, IMU, foot F/T, floor contacts), for a
+        backend that reads the joints itself and takes the rest from another source."""
+        return dict(base_pos=self.base_pos, base_quat_xyzw=self.base_quat_xyzw, base_linvel=self.base_linvel,
+                    base_angvel=self.base_angvel, base_linacc=self.base_linacc, foot_wrench=self.foot_wrench,
+                    floor_contacts=self.floor_contacts)
+
 
 @dataclass(frozen=True)
 class JointCommand:
