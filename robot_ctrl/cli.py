@@ -49,6 +49,71 @@ def _walk(args: argparse.Namespace) -> int:
     return 1 if report["fell"] else 0
 
 
+def _synth_primitives(args: argparse.Namespace):
+    from robot_ctrl.robot.model import load_robot
+    from robot_ctrl.scenarios.walk_reach_synthesis import load_primitives
+
+    robot = load_robot(args.robot)
+    try:
+        return robot, load_primitives(robot, args.dataset)
+    except (FileNotFoundError, ValueError) as exc:
+        raise ConfigError(f"synth: {exc}") from exc
+
+
+def _synth(args: argparse.Namespace) -> int:
+    from robot_ctrl.scenarios.walk_reach_synthesis import GoalJump, plot_synthesis, run_synthesis, write_synthesis
+    from robot_ctrl.synthesis.demonstrations import upper_body_joints
+    from robot_ctrl.synthesis.synthesizer import WalkReachGoal
+
+    robot, primitives = _synth_primitives(args)
+    if args.slot not in primitives.slots:
+        raise ConfigError(f"synth: --slot {args.slot!r} is not one of {', '.join(primitives.slots)}")
+    jump = None
+    if args.goal_jump:
+        try:
+            t, d = (float(v) for v in args.goal_jump.split(":"))
+        except ValueError as exc:
+            raise ConfigError(f"synth: --goal-jump {args.goal_jump!r} must be TIME:DISTANCE, e.g. 1.0:1.9") from exc
+        jump = GoalJump(t, d)
+    try:
+        run = run_synthesis(primitives, WalkReachGoal(args.distance, args.slot), jump=jump)
+    except ValueError as exc:
+        raise ConfigError(f"synth: {exc}") from exc
+    r = run.report
+    print(f"actions {r['actions']}  (comfort distance {r['comfort_distance_m']:.3f} m, replans {r['replans']})")
+    print("planned  lengths [m] " + " ".join(f"{v:.4f}" for v in r["planned_step_lengths_m"]))
+    print("realized lengths [m] " + " ".join(f"{v:.4f}" for v in r["realized_step_lengths_m"]))
+    print(f"final pelvis to drawer {r['final_pelvis_to_goal_m']:.4f} m after {r['duration_s']:.2f} s")
+    if args.out is not None:
+        print(f"wrote {write_synthesis(run, args.out)}")
+    if args.plot is not None:
+        plot_synthesis(run, upper_body_joints(robot), args.plot)
+        print(f"wrote {args.plot}")
+    return 0
+
+
+def _synth_quality(args: argparse.Namespace) -> int:
+    _, primitives = _synth_primitives(args)
+    print("action  sources  Q anechoic  Q PCA (same count)  PCA components for the same Q")
+    for row in primitives.quality:
+        print(f"{row['action']:>6}  {row['sources']:>7}  {row['Q_anechoic']:>10.4f}  {row['Q_pca']:>18.4f}  "
+              f"{row['pca_needed']:>29}")
+    return 0
+
+
+def _synth_demos(args: argparse.Namespace) -> int:
+    from robot_ctrl.robot.model import load_robot
+    from robot_ctrl.synthesis.demonstrations import default_dataset_path, generate_demonstrations
+
+    robot = load_robot(args.robot)
+    path = args.out or default_dataset_path(robot.name)
+    demos = generate_demonstrations(robot)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    demos.save(path)
+    print(f"wrote {len(demos.trials)} demonstrations ({len(demos.channels)} channels, dt {demos.dt} s) to {path}")
+    return 0
+
+
 def _crowd_graph(args: argparse.Namespace):
     import numpy as np
 
@@ -368,6 +433,38 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--cycles", type=int, default=6, help="gait cycles averaged")
     p.add_argument("--out", type=Path, help="output JSON (default models/<robot>_gait_profile.json)")
     p.set_defaults(run=_crowd_gait_profile)
+
+    def synth_args(p):
+        p.add_argument("--robot", default="talos", help=f"robot config name ({', '.join(available_robots())})")
+        p.add_argument("--dataset", type=Path, default=None,
+                       help="demonstration set (default: models/<robot>_walk_reach_demos.npz)")
+
+    p = sub.add_parser("synth", help="walk-and-reach synthesis from learned primitives (kinematic, no physics)",
+                       description="Plans the actions for a drawer at --distance (end-state comfort), synthesizes "
+                                   "pelvis velocity and upper-body joint angles at 200 Hz until the sequence ends, "
+                                   "and prints planned vs realized action lengths (pelvis advance per gait cycle) and "
+                                   "the final pelvis-to-drawer distance.")
+    synth_args(p)
+    p.add_argument("--distance", type=float, required=True, help="drawer front panel from the start pelvis [m]")
+    p.add_argument("--slot", default="front_left", help="object slot in the drawer: front_left, front_right, "
+                                                          "back_left or back_right")
+    p.add_argument("--goal-jump", default=None, metavar="TIME:DISTANCE",
+                   help="move the drawer to DISTANCE [m] at TIME [s] (online replanning)")
+    p.add_argument("--plot", type=Path, default=None, help="PNG of joint angles, pelvis velocity, action boundaries")
+    p.add_argument("--out", type=Path, default=None, help="folder for synth.json")
+    p.set_defaults(run=_synth)
+
+    p = sub.add_parser("synth-quality", help="approximation quality of the learned mixture model vs PCA",
+                       description="Learns the stepwise anechoic model (s0 + 3 periodic sources for action 1, 2 more "
+                                   "for actions 2 and 3) and prints Q = 1 - |X - X^|^2/|X|^2 per action next to PCA "
+                                   "with the same number of sources.")
+    synth_args(p)
+    p.set_defaults(run=_synth_quality)
+
+    p = sub.add_parser("synth-demos", help="generate the walk-and-reach demonstration set (IK, kinematic)")
+    p.add_argument("--robot", default="talos", help=f"robot config name ({', '.join(available_robots())})")
+    p.add_argument("--out", type=Path, default=None, help="output .npz (default: models/<robot>_walk_reach_demos.npz)")
+    p.set_defaults(run=_synth_demos)
 
     p = sub.add_parser("report", help="render DIR/report.json (+ timeseries) as DIR/report.html",
                        description="Self-contained HTML: metrics table, ZMP reference vs measured, top view of CoM "

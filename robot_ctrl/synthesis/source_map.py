@@ -1,0 +1,59 @@
+"""Learned maps from the oscillator's phase plane to source values (thesis eqs. 3.14-3.15).
+
+A periodic source ``s(t)`` sampled at ``T`` points over one period is associated with the points
+``c_j = (cos 2πj/T, sin 2πj/T)`` of the oscillator's limit cycle (the unit circle: the Hopf cycle
+is already circular, so the scaling Θ of eq. 3.15 is the identity). The map is RBF kernel
+(ridge) regression::
+
+    f(z) = Σ_j a_j exp(−‖z − c_j‖² / (2σ²)),     a = (K + λI)⁻¹ s,  K_ij = exp(−‖c_i − c_j‖² / (2σ²))
+
+A delay τ (in samples) becomes a rotation of the state by ``φ = −2π τ / T`` (eq. 3.15), so
+``s(t − τ) ≈ f(R(φ) x(t))`` with no delay line. The thesis uses support vector regression with a
+Gaussian kernel; kernel ridge regression is the same model class with a closed-form fit.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class SourceMap:
+    centers: np.ndarray  # (M, 2) points on the unit circle
+    coefficients: np.ndarray  # (K, M), one row per source
+    sigma: float
+
+    @classmethod
+    def fit(cls, sources: np.ndarray, width: float = 1.5, ridge: float = 1e-6) -> "SourceMap":
+        """Fit every row of ``sources`` (K, T): samples over one period."""
+        T = sources.shape[1]
+        angles = 2 * np.pi * np.arange(T) / T
+        centers = np.stack([np.cos(angles), np.sin(angles)], axis=1)
+        sigma = width * 2 * np.sin(np.pi / T)  # a few times the spacing of the centers
+        K = _kernel(centers, centers, sigma)
+        coefficients = np.linalg.solve(K + ridge * np.eye(T), sources.T).T
+        return cls(centers, coefficients, sigma)
+
+    def __call__(self, z: np.ndarray) -> np.ndarray:
+        """Values (..., K) at phase-plane points ``z`` (..., 2)."""
+        return _kernel(z, self.centers, self.sigma) @ self.coefficients.T
+
+    def delayed(self, x: np.ndarray, rotations: np.ndarray) -> np.ndarray:
+        """``s_k(t − τ_nk)`` for every channel n and source k: rotate the oscillator states ``x``
+        (K, 2), one per source, by ``rotations`` (N, K) [rad] and evaluate source k: (N, K)."""
+        c, s = np.cos(rotations), np.sin(rotations)
+        z = np.stack([c * x[None, :, 0] - s * x[None, :, 1], s * x[None, :, 0] + c * x[None, :, 1]], axis=-1)
+        d2 = ((z[:, :, None, :] - self.centers[None, None]) ** 2).sum(axis=-1)  # (N, K, M)
+        return np.einsum("nkm,km->nk", np.exp(-d2 / (2 * self.sigma**2)), self.coefficients)
+
+
+def delay_rotations(delays: np.ndarray, T: int) -> np.ndarray:
+    """φ = −2π τ / T [rad] for delays in samples of a period of T samples."""
+    return -2 * np.pi * np.asarray(delays) / T
+
+
+def _kernel(a: np.ndarray, b: np.ndarray, sigma: float) -> np.ndarray:
+    d2 = ((a[..., :, None, :] - b[None, :, :]) ** 2).sum(axis=-1)
+    return np.exp(-d2 / (2 * sigma**2))

@@ -1,0 +1,203 @@
+"""Walk-and-reach synthesis (thesis 3.3.3-3.4.2, 3.7): demonstrations, dynamic primitives,
+planning, blending and the online synthesizer, learned from the versioned demonstration set."""
+
+import math
+
+import numpy as np
+import pytest
+
+from robot_ctrl.scenarios.walk_reach_synthesis import GoalJump, load_primitives, run_synthesis
+from robot_ctrl.synthesis.demonstrations import (
+    DemonstrationSet,
+    default_dataset_path,
+    generate_demonstrations,
+)
+from robot_ctrl.synthesis.lwr import LocallyWeightedRegression
+from robot_ctrl.synthesis.oscillator import hopf, phase, rk4_step, star_coupled
+from robot_ctrl.synthesis.source_map import SourceMap, delay_rotations
+from robot_ctrl.synthesis.step_planning import (
+    GAMMA,
+    ActionRanges,
+    blend_nonperiodic,
+    blend_weight,
+    plan_steps,
+)
+from robot_ctrl.synthesis.synthesizer import Synthesizer, WalkReachGoal
+
+
+@pytest.fixture(scope="module")
+def primitives(talos):
+    return load_primitives(talos)
+
+
+# -- dynamic primitives ---------------------------------------------------------------------------
+@pytest.mark.parametrize("start", [(1e-3, 0.0), (0.0, -0.02), (3.0, 4.0), (-0.6, 0.1)])
+def test_hopf_oscillator_converges_to_the_unit_cycle_from_any_nonzero_state(start):
+    omega, dt = 2 * np.pi / 1.6, 0.005
+    x = np.array(start)
+    phases = []
+    for _ in range(int(20 / dt)):  # from r = 1e-3, ṙ ≈ r: about 7 s to grow, then rate 2 to the cycle
+        x = rk4_step(lambda s: hopf(s, omega), x, dt)
+        phases.append(np.arctan2(x[1], x[0]))
+    assert abs(np.hypot(*x) - 1) < 1e-6
+    rate = np.diff(np.unwrap(phases[-200:])) / dt
+    np.testing.assert_allclose(rate, omega, rtol=1e-6)
+
+
+def test_star_coupled_followers_lock_onto_the_leader():
+    rng = np.random.default_rng(1)
+    x = rng.normal(size=(6, 2))
+    for _ in range(int(5 / 0.005)):
+        x = rk4_step(lambda s: star_coupled(s, 4.0, 10.0), x, 0.005)
+    assert np.abs(x[1:] - x[0]).max() < 1e-6
+
+
+def test_source_map_turns_delays_into_phase_plane_rotations():
+    T = 50
+    t = np.arange(T)
+    S = np.stack([np.cos(2 * np.pi * t / T) + 0.3 * np.sin(6 * np.pi * t / T), np.sin(4 * np.pi * t / T) ** 3])
+    f = SourceMap.fit(S)
+    tau = np.array([[7.3, 31.0]])
+    angle = 1.0
+    x = np.array([[math.cos(angle), math.sin(angle)]] * 2)
+    got = f.delayed(x, delay_rotations(tau, T))[0]
+    shifted = angle - 2 * np.pi * tau[0] / T
+    want = [np.cos(shifted[0]) + 0.3 * np.sin(3 * shifted[0]), np.sin(2 * shifted[1]) ** 3]
+    np.testing.assert_allclose(got, want, atol=1e-4)
+
+
+def test_locally_weighted_regression_is_exact_on_affine_data_and_local_on_curved_data():
+    x = np.linspace(0, 1, 15)
+    lwr = LocallyWeightedRegression.fit(x, 2 * x + 1)
+    assert abs(lwr(0.37)[0] - 1.74) < 1e-6
+    curved = LocallyWeightedRegression.fit(x, np.sin(3 * x), bandwidth=0.2)
+    global_fit = np.polyval(np.polyfit(x, np.sin(3 * x), 1), 0.5)
+    assert abs(curved(0.5)[0] - np.sin(1.5)) < 0.1 * abs(global_fit - np.sin(1.5))
+
+
+# -- planning and blending ------------------------------------------------------------------------
+RANGES = ActionRanges(normal=(0.26, 0.42), short=(0.20, 0.68))
+
+
+def test_step_planning_follows_end_state_comfort():
+    c = 0.55
+    plan = plan_steps(c + 0.9, c, RANGES)
+    assert plan.actions == (1, 2, 3)
+    np.testing.assert_allclose(plan.lengths, (0.9 * GAMMA, 0.9 * (1 - GAMMA), 0.0))
+    longer = plan_steps(c + 1.8, c, RANGES)  # D1 would be 0.69 m: two extra normal cycles, same proportion
+    assert longer.actions == (1, 1, 1, 2, 3)
+    d1 = longer.lengths[0]
+    assert RANGES.normal[0] <= d1 <= RANGES.normal[1] and abs(longer.lengths[-2] / d1 - (1 - GAMMA) / GAMMA) < 1e-9
+    assert abs(sum(longer.lengths) - 1.8) < 1e-12
+    assert plan_steps(c + 1.5, c, RANGES).actions == (1, 1, 2, 3)  # one extra is enough here
+    short = plan_steps(c + 0.5, c, RANGES)  # D1 = 0.19 m is below the normal range: one short cycle
+    assert short.actions == (2, 3) and short.lengths == (0.5, 0.0)
+    after = plan_steps(c + 1.0, c, RANGES, after_short=True)  # slowing down already: short cycles only
+    assert set(after.actions[:-1]) == {2} and abs(sum(after.lengths) - 1.0) < 1e-12
+    with pytest.raises(ValueError, match="goal distance = 0.600 m is too close"):
+        plan_steps(0.6, c, RANGES)
+
+
+def test_blending_weight_and_sign_rule_are_continuous():
+    b = 0.2
+    assert blend_weight(-b * np.pi - 1e-9) == 0 and blend_weight(b * np.pi + 1e-9) == 1
+    assert abs(blend_weight(0.0) - 0.5) < 1e-12
+    phi = np.linspace(-np.pi / 2, np.pi / 2, 2001)
+    assert np.abs(np.diff(blend_weight(phi))).max() < 0.01
+    w_prev, w_post = np.array([0.7, -0.4]), np.array([-0.3, 0.9])
+    # W s0 across φ = 0, where s0 = cos(φ/2) of the action in progress jumps from −1 to 1.
+    before = blend_nonperiodic(-1e-9, w_prev, w_post) * -1.0
+    after = blend_nonperiodic(1e-9, w_prev, w_post) * 1.0
+    np.testing.assert_allclose(before, after, atol=1e-8)
+    np.testing.assert_allclose(after, (w_post - w_prev) / 2, atol=1e-8)
+    np.testing.assert_allclose(blend_nonperiodic(-b * np.pi, w_prev, w_post), w_prev)
+    np.testing.assert_allclose(blend_nonperiodic(b * np.pi, w_prev, w_post), w_post)
+
+
+# -- learned model and synthesizer ----------------------------------------------------------------
+def test_demonstration_set_is_versioned_and_regenerates_identically(talos):
+    stored = DemonstrationSet.load(default_dataset_path("talos"))
+    fresh = generate_demonstrations(talos)
+    assert stored.channels == fresh.channels and len(stored.trials) == 30
+    for a, b in zip(stored.trials, fresh.trials):
+        assert a.slot == b.slot
+        np.testing.assert_array_equal(a.bounds, b.bounds)
+        np.testing.assert_allclose(a.signals, b.signals, atol=1e-5)  # stored as float32
+        advance = [b.signals[b.bounds[k] : b.bounds[k + 1], 0].sum() * fresh.dt for k in range(3)]
+        np.testing.assert_allclose(advance, b.lengths, atol=1e-9)
+
+
+def test_mixture_model_quality_per_action(primitives):
+    q = {row["action"]: row for row in primitives.quality}
+    assert q[1]["sources"] == 4 and q[2]["sources"] == q[3]["sources"] == 6
+    assert all(row["Q_anechoic"] > 0.99 for row in q.values())
+    assert q[1]["Q_anechoic"] > q[1]["Q_pca"]  # shifted gait shapes: PCA needs more sources
+
+
+def training_distances(primitives):
+    demos = DemonstrationSet.load(default_dataset_path("talos"))
+    return np.array([primitives.comfort_distance + t.lengths.sum() for t in demos.trials])
+
+
+def test_unseen_distances_realize_the_planned_steps_and_end_at_comfort(primitives):
+    c = primitives.comfort_distance
+    # Spanning what one normal + one short cycle cover, (D − c) from 0.26/γ = 0.675 m to 0.42/γ = 1.091 m,
+    # each at least 5 mm away from every training distance.
+    distances = c + np.array([0.686, 0.720, 0.776, 0.809, 0.866, 0.900, 0.956, 0.992, 1.046, 1.084])
+    assert np.abs(distances[:, None] - training_distances(primitives)[None]).min() > 5e-3
+    for k, d in enumerate(distances):
+        run = run_synthesis(primitives, WalkReachGoal(float(d), ("front_left", "back_right")[k % 2]))
+        r = run.report
+        assert r["actions"] == [1, 2, 3]
+        np.testing.assert_allclose(r["planned_step_lengths_m"][:2], [(d - c) * GAMMA, (d - c) * (1 - GAMMA)])
+        assert np.abs(r["step_length_errors_mm"]).max() < 5.0
+        assert abs(r["final_pelvis_to_goal_m"] - c) < 0.02
+        assert np.all(np.isfinite(run.upper_body_q)) and np.all(np.isfinite(run.pelvis_velocity))
+        # Continuous references: at 200 Hz no joint moves more than 0.02 rad (4 rad/s) between samples,
+        # including the action transitions, where the weights and means switch.
+        assert np.abs(np.diff(run.upper_body_q, axis=0)).max() < 0.02
+        assert np.abs(np.diff(run.pelvis_velocity, axis=0)).max() < 0.02
+        assert abs(run.pelvis_velocity[-1, 0]) < 0.01  # standing at the end
+
+
+def test_transitions_have_no_jump_in_joint_angles(primitives):
+    run = run_synthesis(primitives, WalkReachGoal(primitives.comfort_distance + 0.85, "back_left"))
+    boundaries = np.flatnonzero(np.diff(run.action))
+    steps = np.abs(np.diff(run.upper_body_q, axis=0))
+    typical = np.percentile(steps.max(axis=1), 99)
+    assert len(boundaries) == 2
+    for k in boundaries:
+        assert steps[k - 2 : k + 3].max() <= typical
+
+
+def test_goal_jump_adds_a_step_and_still_ends_at_comfort(primitives):
+    c = primitives.comfort_distance
+    goal = WalkReachGoal(c + 0.85, "front_right")
+    planned = Synthesizer(primitives, goal).plan
+    run = run_synthesis(primitives, goal, jump=GoalJump(time=1.0, distance=c + 1.35))
+    r = run.report
+    assert r["replans"] == 1
+    assert len(r["actions"]) == len(planned) + 1 and r["actions"][-2:] == [2, 3]
+    assert abs(r["final_pelvis_to_goal_m"] - c) < 0.02
+    assert np.abs(np.diff(run.upper_body_q, axis=0)).max() < 0.02
+
+
+def test_goal_jump_during_the_short_cycle_adds_a_short_cycle(primitives):
+    c = primitives.comfort_distance
+    run = run_synthesis(primitives, WalkReachGoal(c + 0.85, "back_left"), jump=GoalJump(time=2.4, distance=c + 1.3))
+    assert run.report["actions"] == [1, 2, 2, 3]
+    assert abs(run.report["final_pelvis_to_goal_m"] - c) < 0.02
+
+
+def test_synthesizer_rejects_bad_input(primitives):
+    with pytest.raises(ValueError, match="too close"):
+        Synthesizer(primitives, WalkReachGoal(0.3))
+    with pytest.raises(ValueError, match="slot = 'middle'"):
+        Synthesizer(primitives, WalkReachGoal(1.5, "middle"))
+    synth = Synthesizer(primitives, WalkReachGoal(1.5))
+    with pytest.raises(ValueError, match="dt = nan"):
+        synth.step(float("nan"))
+
+
+def test_phase_helper_wraps_into_one_period():
+    assert phase(np.array([1.0, -1e-9])) > 6.28 and phase(np.array([-1.0, 0.0])) == pytest.approx(np.pi)
