@@ -34,6 +34,7 @@ bench: $(BENCH_STAMP)
 	$(BENCH_VENV)/bin/python benchmarks/bench_loop.py
 	$(BENCH_VENV)/bin/python benchmarks/bench_crowd.py
 	$(BENCH_VENV)/bin/python benchmarks/bench_dynfilter.py
+	$(BENCH_VENV)/bin/python benchmarks/bench_synthesis.py
 
 clean:
 	rm -rf $(VENV) $(BENCH_VENV) runs

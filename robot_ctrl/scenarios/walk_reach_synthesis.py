@@ -104,7 +104,8 @@ def plot_synthesis(run: SynthesisRun, joint_names: tuple[str, ...], path: Path) 
     axes[2].plot(run.time, run.goal - run.report["comfort_distance_m"], "--", label="drawer − comfort distance")
     axes[2].set_ylabel("[m]")
     axes[2].set_xlabel("time [s]")
-    starts = np.flatnonzero(np.diff(run.action, prepend=-1))
+    wraps = np.diff(run.phase, prepend=np.inf) < -np.pi  # each action is one period of the leader
+    starts = np.flatnonzero((wraps | (np.arange(len(run.time)) == 0)) & (run.action > 0))
     for ax in axes:
         for k in starts:
             ax.axvline(run.time[k], color="grey", lw=0.8, ls=":")

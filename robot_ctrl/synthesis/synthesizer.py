@@ -131,7 +131,8 @@ class Synthesizer:
             if not c.finished:
                 self.history.append(ExecutedAction(self.plan[c.index].action, self.plan[c.index].length,
                                                    self.history[-1].end_progress))
-        if c.finished:
+        if c.finished:  # hold the last references
+            self._last = SynthesisOutput(self._last.pelvis_velocity, self._last.upper_body_q, self._last.phase, 0)
             return self._last
         values = np.clip(values, self.primitives.lower, self.primitives.upper)
         if not np.all(np.isfinite(values)):
