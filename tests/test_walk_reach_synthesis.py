@@ -198,6 +198,8 @@ def test_synthesizer_rejects_bad_input(primitives):
     synth = Synthesizer(primitives, WalkReachGoal(1.5))
     with pytest.raises(ValueError, match="dt = nan"):
         synth.step(float("nan"))
+    velocity, q, phi, action = synth.step(0.005, WalkReachGoal(1.5))
+    assert velocity.shape == (3,) and q.shape == (18,) and 0 < phi < 0.1 and action == 1
 
 
 def test_phase_helper_wraps_into_one_period():

@@ -53,6 +53,10 @@ class SynthesisOutput:
     phase: float  # leader phase φ in [0, 2π) within the current action [rad]
     action: int  # 1 normal, 2 short with reach, 3 standing; 0 once the sequence has ended
 
+    def __iter__(self):
+        """``v, q, phase, action = synth.step(dt, goal)``."""
+        return iter((self.pelvis_velocity, self.upper_body_q, self.phase, self.action))
+
 
 @dataclass
 class _Cursor:
