@@ -1,7 +1,7 @@
 """Dynamic filter cost: one filter pass per pattern-generator sample, and the full walking loop's
 real-time factor with the filter off and on (target: ≥ 5× real time with the filter on).
 
-A pass is the whole-body preview (17 IK Newton steps over the 1.6 s horizon), its multibody ZMP
+A pass is the whole-body preview (19 weighted least-squares Newton steps over the 1.6 s horizon), its multibody ZMP
 (Pinocchio RNEA at 15 samples) and the preview-control correction. Talos walks 2 m at 0.25 m/s in
 MuJoCo (1 ms physics, 200 Hz control) with the arms swinging; the filter runs its passes once per
 0.1 s sample. Run: ``python benchmarks/bench_dynfilter.py [--passes 2]``.

@@ -4,8 +4,9 @@
 At every pattern-generator sample, for the plan over the horizon (CoM and feet from the WPG's
 preview, upper body from its reference), each pass:
 
-1. solves the whole-body motion with a stack-of-tasks IK of its own, one Newton step per horizon
-   sample (gain 1/T), from the controller's current reference configuration;
+1. solves the whole-body motion (``PreviewIK``: the controller's IK tasks as one weighted
+   least-squares Newton step per horizon sample), from the controller's current reference
+   configuration;
 2. computes its multibody ZMP (``multibody_zmp``: Pinocchio inverse dynamics, finite differences);
 3. takes the error against the WPG's reference ZMP and updates the CoM offset by preview control
    (``PreviewCorrection``), a Newton-like step (thesis: "a kind of Newton-Raphson iteration").
@@ -26,8 +27,8 @@ import pinocchio as pin
 
 from robot_ctrl.dynfilter.multibody_zmp import trajectory_zmp
 from robot_ctrl.dynfilter.preview_correction import PreviewCorrection
+from robot_ctrl.dynfilter.preview_ik import SIDES, PreviewIK
 from robot_ctrl.robot.model import RobotModel
-from robot_ctrl.sot.whole_body_ik import SIDES, WholeBodyIK
 from robot_ctrl.wpg.generator import WalkingPatternGenerator
 
 MODES = ("off", "legs", "full")
@@ -45,8 +46,7 @@ class DynamicFilter:
         self.passes = passes
         self.correction = PreviewCorrection(horizon, com_height)
         self._data = robot.pin.createData()
-        self._ik: WholeBodyIK | None = None
-        self._ik_T: float | None = None
+        self._ik = PreviewIK(robot)
         self._last_T: float | None = None
         self.last_error: np.ndarray | None = None  # (N − 1, 2) multibody − reference ZMP of the last pass
         self.pass_rms: list[float] = []  # weighted RMS of that error at each pass of the last update [m]
@@ -85,22 +85,18 @@ class DynamicFilter:
         return self.correction.at(tau)
 
     def _whole_body(self, preview, offsets, q_ref, com_z, sole_height, posture, T) -> list[np.ndarray]:
-        if self._ik is None or self._ik_T != T:  # gain 1/T: each step is a full Newton step
-            self._ik, self._ik_T = WholeBodyIK(self.robot, q_ref, gain=1.0 / T), T
         ik = self._ik
         ik.set_configuration(q_ref)
         qs = []
         for sample, offset in zip(preview, offsets):
-            for side in SIDES:
-                pos, yaw = sample.feet[side]
-                ik.feet[side].set_target(pin.SE3(pin.utils.rpyToMatrix(0.0, 0.0, yaw), pos + [0.0, 0.0, sole_height]))
+            feet = [pin.SE3(pin.utils.rpyToMatrix(0.0, 0.0, sample.feet[s][1]),
+                            sample.feet[s][0] + [0.0, 0.0, sole_height]) for s in SIDES]
             yaw = np.arctan2(sum(np.sin(sample.feet[s][1]) for s in SIDES), sum(np.cos(sample.feet[s][1]) for s in SIDES))
-            ik.waist.set_target(pin.SE3(pin.utils.rpyToMatrix(0.0, 0.0, yaw), np.zeros(3)))
-            ik.com.set_target(np.array([*(sample.com + offset), com_z]))
-            ik.posture.set_target(posture(sample.t))
+            com = np.array([*(sample.com + offset), com_z])
+            target = posture(sample.t)
             # Sample 0 starts from the controller's reference, which the stabilizer has moved off the
             # plan: converge onto the plan first, so the trajectory does not begin with a jump.
             for _ in range(1 if qs else 3):
-                ik.step(T)
+                ik.step(feet, com, pin.utils.rpyToMatrix(0.0, 0.0, yaw), target)
             qs.append(ik.q.copy())
         return qs
