@@ -68,3 +68,28 @@ def test_filter_settings_are_checked(talos):
         DynamicFilter(talos, 16, 0.88, "both")
     with pytest.raises(ValueError, match=r"dynfilter passes = 0 must be an integer in \[1, 10\]"):
         DynamicFilter(talos, 16, 0.88, "full", passes=0)
+
+
+def test_preview_ik_reaches_the_planned_feet_com_and_waist(talos):
+    from robot_ctrl.dynfilter.preview_ik import PreviewIK
+
+    ik = PreviewIK(talos)
+    ik.set_configuration(talos.q_half_sitting)
+    data = talos.pin.createData()
+    pin.framesForwardKinematics(talos.pin, data, talos.q_half_sitting)
+    feet = [data.oMf[talos.frame_ids[f"{s}_foot"]].copy() for s in ("left", "right")]
+    feet[1].translation += [0.15, 0.0, 0.03]  # right foot stepping forward and lifted
+    com = pin.centerOfMass(talos.pin, data, talos.q_half_sitting) + [0.05, 0.04, -0.02]
+    waist = pin.utils.rpyToMatrix(0.0, 0.0, 0.1)
+    posture = talos.q_half_sitting[talos.q_index].copy()
+    for _ in range(6):
+        q = ik.step(feet, com, waist, posture)
+    pin.framesForwardKinematics(talos.pin, data, q)
+    for frame, target in zip((talos.frame_ids["left_foot"], talos.frame_ids["right_foot"]), feet):
+        # The posture weight μ biases the tasks by O(μ²): micrometres.
+        assert np.linalg.norm(pin.log6(data.oMf[frame].actInv(target)).vector) < 1e-5
+    np.testing.assert_allclose(pin.centerOfMass(talos.pin, data, q), com, atol=1e-5)
+    assert np.linalg.norm(pin.log3(waist @ data.oMf[talos.frame_ids["waist"]].rotation.T)) < 1e-5
+    upper = [i for i, n in enumerate(talos.joint_names) if n.startswith("arm_")]
+    # The posture acts in the tasks' null space: the arms stay near their reference.
+    assert np.abs(q[talos.q_index][upper] - posture[upper]).max() < 0.05

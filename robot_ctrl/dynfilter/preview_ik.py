@@ -5,7 +5,7 @@ would reach: feet, CoM and waist orientation as planned, the joints otherwise at
 reference (upper body from its reference, legs at half-sitting). The controller's IK solves this
 as a strict hierarchy of QPs (``robot_ctrl.sot``); the preview solves the same tasks as one
 weighted least-squares Newton step, the posture with a small weight μ so it acts (almost) only
-in the null space of the tasks::
+in the null space of the tasks (it biases them by O(μ²), micrometres)::
 
     e = [p*_L − p_L, log3(R*_L R_Lᵀ), p*_R − p_R, log3(R*_R R_Rᵀ), c* − c, log3(R*_w R_wᵀ)]  (world frame)
     (JᵀJ + μ² PᵀP + λI) Δv = Jᵀe + μ² Pᵀ(q*_joints − q_joints)
@@ -24,7 +24,7 @@ from scipy.linalg import lapack
 from robot_ctrl.robot.model import RobotModel
 
 SIDES = ("left", "right")
-POSTURE_WEIGHT = 1e-2  # μ
+POSTURE_WEIGHT = 1e-3  # μ: its bias on the tasks scales with μ², its pull in their null space does not (μ² ≫ λ)
 DAMPING = 1e-8  # λ
 _posv = lapack.dposv
 
