@@ -22,8 +22,10 @@ import numpy as np
 
 def hopf(x: np.ndarray, omega: float | np.ndarray) -> np.ndarray:
     """ẋ for states ``x`` (..., 2); ``omega`` [rad/s] broadcast over the leading axes."""
-    r2 = x[..., 0] ** 2 + x[..., 1] ** 2
-    return np.stack([(1 - r2) * x[..., 0] - omega * x[..., 1], (1 - r2) * x[..., 1] + omega * x[..., 0]], axis=-1)
+    out = (1 - np.sum(x * x, axis=-1, keepdims=True)) * x
+    out[..., 0] -= omega * x[..., 1]
+    out[..., 1] += omega * x[..., 0]
+    return out
 
 
 def star_coupled(x: np.ndarray, omega: float, coupling: float) -> np.ndarray:

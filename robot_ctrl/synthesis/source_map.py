@@ -43,9 +43,11 @@ class SourceMap:
     def delayed(self, x: np.ndarray, rotations: np.ndarray) -> np.ndarray:
         """``s_k(t − τ_nk)`` for every channel n and source k: rotate the oscillator states ``x``
         (K, 2), one per source, by ``rotations`` (N, K) [rad] and evaluate source k: (N, K)."""
-        c, s = np.cos(rotations), np.sin(rotations)
-        z = np.stack([c * x[None, :, 0] - s * x[None, :, 1], s * x[None, :, 0] + c * x[None, :, 1]], axis=-1)
-        d2 = ((z[:, :, None, :] - self.centers[None, None]) ** 2).sum(axis=-1)  # (N, K, M)
+        # The centers lie on the unit circle at angles a_j: ‖R(φ)x − c_j‖² = r² + 1 − 2r cos(θ + φ − a_j).
+        r = np.hypot(x[:, 0], x[:, 1])[None, :, None]
+        theta = np.arctan2(x[:, 1], x[:, 0])
+        angles = np.arctan2(self.centers[:, 1], self.centers[:, 0])
+        d2 = r * r + 1 - 2 * r * np.cos((theta + rotations)[..., None] - angles)  # (N, K, M)
         return np.einsum("nkm,km->nk", np.exp(-d2 / (2 * self.sigma**2)), self.coefficients)
 
 
