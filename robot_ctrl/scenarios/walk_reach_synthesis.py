@@ -48,7 +48,7 @@ class SynthesisRun:
 
 def run_synthesis(primitives: WalkReachPrimitives, goal: WalkReachGoal, dt: float = 0.005,
                   jump: GoalJump | None = None, max_time: float = 60.0) -> SynthesisRun:
-    synth = Synthesizer(primitives, goal)
+    synth = Synthesizer(primitives, goal, dt)
     rows, t = [], 0.0
     while not synth.finished:
         if t > max_time:

@@ -91,7 +91,9 @@ class ExecutedAction:
 
 
 class Synthesizer:
-    def __init__(self, primitives: WalkReachPrimitives, goal: WalkReachGoal):
+    def __init__(self, primitives: WalkReachPrimitives, goal: WalkReachGoal, control_dt: float = 0.005):
+        """``control_dt`` [s]: the step the planning rollout assumes until ``step`` is called (then
+        the last ``dt`` given); stepping at another rate moves the realized lengths by millimetres."""
         self.primitives = primitives
         self._vx = primitives.channels.index("vx")
         self._upper = slice(3, None)
@@ -105,7 +107,7 @@ class Synthesizer:
         self.replans = 0
         self._goal = None
         self._last = None
-        self._dt = 0.005
+        self._dt = control_dt
         self._set_goal(goal)
 
     # -- public -------------------------------------------------------------------------------------
