@@ -101,10 +101,11 @@ def learn_stepwise(X: np.ndarray, n_first: int = 3, n_extra: int = 2) -> Stepwis
     return StepwiseModel(sources, delays, n_first, means, w0, weights.reshape(n_actions, n_trials, C, K))
 
 
-def _pca_quality(X: np.ndarray, n: int) -> float:
-    """Q of the best rank-n approximation of X (rows = trajectories, columns = time)."""
-    U, s, Vt = np.linalg.svd(X, full_matrices=False)
-    return quality(X, (U[:, :n] * s[:n]) @ Vt[:n])
+def _pca_quality(X: np.ndarray) -> np.ndarray:
+    """Q of the best rank-n approximation of X (rows = trajectories, columns = time) for n = 1, 2, ...:
+    ``1 − Σ_{i>n} σ_i² / Σ σ_i²`` (Eckart-Young)."""
+    energy = np.linalg.svd(X, compute_uv=False) ** 2
+    return 1.0 - (energy.sum() - np.cumsum(energy)) / energy.sum()
 
 
 def quality_table(X: np.ndarray, model: StepwiseModel) -> list[dict]:
@@ -119,7 +120,7 @@ def quality_table(X: np.ndarray, model: StepwiseModel) -> list[dict]:
         mean = Xa.mean(axis=1, keepdims=True)
         q = quality(Xa - mean, Xh - mean)
         n = 1 + (model.n_first if a == 0 else model.sources.shape[0])
-        pca = [_pca_quality(Xa - mean, k) for k in range(1, model.T)]
-        needed = next((k + 1 for k, v in enumerate(pca) if v >= q), model.T)
+        pca = _pca_quality(Xa - mean)
+        needed = 1 + int(np.argmax(pca >= q)) if pca[-1] >= q else model.T
         rows.append({"action": a + 1, "sources": n, "Q_anechoic": q, "Q_pca": pca[n - 1], "pca_needed": needed})
     return rows
