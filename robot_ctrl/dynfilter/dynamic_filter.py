@@ -27,8 +27,9 @@ import pinocchio as pin
 
 from robot_ctrl.dynfilter.multibody_zmp import trajectory_zmp
 from robot_ctrl.dynfilter.preview_correction import PreviewCorrection
-from robot_ctrl.dynfilter.preview_ik import SIDES, PreviewIK
+from robot_ctrl.dynfilter.preview_ik import PreviewIK
 from robot_ctrl.robot.model import RobotModel
+from robot_ctrl.sot.whole_body_ik import SIDES
 from robot_ctrl.wpg.generator import WalkingPatternGenerator
 
 MODES = ("off", "legs", "full")

@@ -22,8 +22,7 @@ import pinocchio as pin
 from scipy.linalg import lapack
 
 from robot_ctrl.robot.model import RobotModel
-
-SIDES = ("left", "right")
+from robot_ctrl.sot.whole_body_ik import SIDES
 POSTURE_WEIGHT = 1e-3  # μ: its bias on the tasks scales with μ², its pull in their null space does not (μ² ≫ λ)
 DAMPING = 1e-8  # λ
 _posv = lapack.dposv
