@@ -50,8 +50,6 @@ PELVIS_CHANNELS = ("vx", "vy", "wz")
 SLOTS = ("front_left", "front_right", "back_left", "back_right")
 HUMAN_COMFORT_DISTANCE = 0.6  # [m] pelvis to drawer during the last action (thesis 3.4.2)
 HUMAN_ARM_LENGTH = 0.58  # [m] shoulder to wrist of a 1.75 m adult (Winter: 0.332 of the height)
-GAIT_LENGTH_SCALE = 0.45  # robot gait-cycle length / human
-GAIT_TIME_SCALE = 1.5  # robot gait-cycle duration / human (the WPG's 0.8 s step period)
 
 
 def upper_body_joints(robot: RobotModel) -> tuple[str, ...]:
@@ -143,7 +141,8 @@ def default_dataset_path(robot: str) -> Path:
     return Path(__file__).resolve().parents[2] / "models" / f"{robot}_walk_reach_demos.npz"
 
 
-# Nominal action timing and the training grid (robot scale; human values x the gait scales).
+# Nominal action timing and the training grid, robot scale: human lengths x 0.45, durations x 1.5
+# (a 1.6 s normal cycle is two of the WPG's 0.8 s steps).
 # action -> (length [m], duration [s], exponent of T ∝ L^e). The short cycle brings the pelvis to
 # rest, so its duration grows almost in proportion to its length (mean speed 0.17-0.25 m/s, peak
 # below the WPG's 0.3 m per 0.8 s step).
