@@ -161,8 +161,7 @@ class Synthesizer:
                            after_short=previous is not None and previous.action == 2)
         new, prev_len = [], previous.length if previous is not None else 0.0
         for action, length in zip(steps.actions, steps.lengths):
-            p = self.primitives.action(action, length, goal.slot, prev_len)
-            new.append(p.with_mean(self._vx, length / p.duration))
+            new.append(self.primitives.action(action, length, goal.slot, prev_len))  # vx mean: solved below
             prev_len = length
         self.plan = self.plan[:keep] + new
         self.targets = self.targets[:keep] + list(kept_end + np.cumsum(steps.lengths))
