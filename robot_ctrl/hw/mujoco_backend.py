@@ -42,24 +42,27 @@ class MujocoBackend(HardwareAdapter):
         self._floor = self.world.floor
         # A foot is every body welded to the link that carries the sole frame.
         self._sole_body = {}
-        self._foot_weld = {}
-        for side, frame in robot.config.feet.items():
-            body = self.m.body(prefix + frame).id
-            self._sole_body[side] = body
-            self._foot_weld[side] = self.m.body_weldid[body]
+        self._foot_bodies = {}
         robot_bodies = np.flatnonzero(
             np.array([self.m.body(i).name.startswith(prefix) for i in range(self.m.nbody)]))
         self._robot_bodies = set(robot_bodies.tolist())
+        foot_weld = {}
+        for side, frame in robot.config.feet.items():
+            body = self.m.body(prefix + frame).id
+            self._sole_body[side] = body
+            foot_weld[side] = self.m.body_weldid[body]
+            self._foot_bodies[side] = robot_bodies[self.m.body_weldid[robot_bodies] == foot_weld[side]]
+        self._root = int(self.m.body_rootid[self.map.base_body])
         weld = self.m.body_weldid[self.m.geom_bodyid]
-        self._geom_side = [next((side for side, foot in self._foot_weld.items() if w == foot), None) for w in weld]
+        self._geom_side = [next((side for side, foot in foot_weld.items() if w == foot), None) for w in weld]
+        # Geoms of this robot outside its feet: their floor contacts are reported (falls).
+        self._body_geom = np.array([side is None and b in self._robot_bodies
+                                    for side, b in zip(self._geom_side, self.m.geom_bodyid)])
         self._act = self.map.actuator
         if not np.array_equal(self._act, np.arange(self._act[0], self._act[0] + self.nj)):
             raise ValueError("the robot's actuators must be contiguous and in joint order in the MuJoCo model")
         self._acts = slice(int(self._act[0]), int(self._act[0]) + self.nj)  # views, not copies
-        self._tau_demand = np.zeros(self.nj)
-        self._force = np.zeros(6)
         self._servo = None  # (kp, kd, kp q_des + kd dq_des + tau_ff) of the last command
-        self.world.on_substep(self._track_demand)
 
     # Lifecycle hooks --------------------------------------------------------------------------
     def _on_configure(self) -> None:
@@ -73,6 +76,7 @@ class MujocoBackend(HardwareAdapter):
         mujoco.mj_kinematics(self.m, self.d)
         self.d.qpos[self.map.base_qpos + 2] -= self._lowest_foot_point()
         mujoco.mj_forward(self.m, self.d)
+        mujoco.mj_rnePostConstraint(self.m, self.d)  # contact wrenches for the first read
         self._apply_gains(self.robot.kp, self.robot.kd, np.zeros(self.nj), np.zeros(self.nj))
         self.d.ctrl[self._act] = self.d.qpos[self.map.qpos]
 
@@ -104,26 +108,23 @@ class MujocoBackend(HardwareAdapter):
         if self._owns_world:
             self.world.step()
 
-    def _track_demand(self) -> None:
-        """Peak unsaturated servo torque since the last read, from the actuator length and velocity
-        MuJoCo computed for this physics step: kp q_des + (kd dq_des + tau_ff) − kp q − kd dq."""
+    def _demand(self, q: np.ndarray, dq: np.ndarray) -> np.ndarray | None:
+        """Unsaturated servo torque at the read: kp q_des + (kd dq_des + tau_ff) − kp q − kd dq."""
         if self._servo is None:
-            return
+            return None
         kp, kd, constant = self._servo
-        acts = self._acts
-        demand = constant - kp * self.d.actuator_length[acts] - kd * self.d.actuator_velocity[acts]
-        peak = np.abs(demand) > np.abs(self._tau_demand)
-        self._tau_demand[peak] = demand[peak]
+        return constant - kp * q - kd * dq
 
     def _read(self) -> JointState:
         m, d, mp = self.m, self.d, self.map
         b, v = mp.base_qpos, mp.base_dof
         wxyz = d.qpos[b + 3 : b + 7]
         rot = d.xmat[mp.base_body].reshape(3, 3)
-        state = JointState(
+        q, dq = d.qpos[mp.qpos], d.qvel[mp.dof]
+        return JointState(
             t=float(d.time),
-            q=d.qpos[mp.qpos].copy(),
-            dq=d.qvel[mp.dof].copy(),
+            q=q,
+            dq=dq,
             tau=d.actuator_force[self._act].copy(),
             base_pos=d.qpos[b : b + 3].copy(),
             base_quat_xyzw=np.array([wxyz[1], wxyz[2], wxyz[3], wxyz[0]]),
@@ -131,54 +132,36 @@ class MujocoBackend(HardwareAdapter):
             base_angvel=d.qvel[v + 3 : v + 6].copy(),  # MuJoCo's free-joint angular velocity is body-frame
             base_linacc=rot.T @ (d.qacc[v : v + 3] - m.opt.gravity),
             foot_wrench=self._foot_wrenches(),
-            tau_demand=self._tau_demand.copy(),
+            tau_demand=self._demand(q, dq),
             floor_contacts=self._floor_contacts(),
         )
-        self._tau_demand[:] = 0.0
-        return state
 
     # Contacts -----------------------------------------------------------------------------------
-    def _foot_side(self, geom: int) -> str | None:
-        return self._geom_side[geom]
-
     def _foot_wrenches(self) -> dict[str, np.ndarray]:
-        """Floor-on-foot wrench per side, in the sole frame about the sole origin."""
-        m, d = self.m, self.d
-        world = {side: np.zeros(6) for side in self._sole_body}  # force, torque about sole origin
-        for i in range(d.ncon):
-            c = d.contact[i]
-            if self._floor not in (c.geom1, c.geom2):
-                continue
-            other = c.geom2 if c.geom1 == self._floor else c.geom1
-            side = self._foot_side(other)
-            if side is None:
-                continue
-            mujoco.mj_contactForce(m, d, i, self._force)
-            # The contact frame's normal points from geom1 to geom2; the force acts on geom2.
-            f = c.frame.reshape(3, 3).T @ self._force[:3]
-            if other == c.geom1:
-                f = -f
-            r = c.pos - d.xpos[self._sole_body[side]]
-            world[side][:3] += f
-            # r × f written out: np.cross costs more than the rest of this loop.
-            world[side][3:] += (r[1] * f[2] - r[2] * f[1], r[2] * f[0] - r[0] * f[2], r[0] * f[1] - r[1] * f[0])
+        """Contact wrench on each foot, in the sole frame about the sole origin, as a force/torque
+        sensor at the sole reads it. MuJoCo's ``cfrc_ext`` holds each body's contact wrench
+        ``[torque, force]`` in world axes about the subtree CoM ``c`` of the robot's root; about the
+        sole origin ``p`` the torque is ``τ + (c − p) × f``."""
+        d = self.d
+        c = d.subtree_com[self._root]
         out = {}
-        for side, w in world.items():
+        for side, bodies in self._foot_bodies.items():
+            w = d.cfrc_ext[bodies].sum(axis=0)
+            torque, f = w[:3], w[3:]
+            r = c - d.xpos[self._sole_body[side]]
+            # r × f written out: np.cross costs more than the rest of this function.
+            torque = torque + (r[1] * f[2] - r[2] * f[1], r[2] * f[0] - r[0] * f[2], r[0] * f[1] - r[1] * f[0])
             rot = d.xmat[self._sole_body[side]].reshape(3, 3)
-            out[side] = np.concatenate([rot.T @ w[:3], rot.T @ w[3:]])
+            out[side] = np.concatenate([f @ rot, torque @ rot])
         return out
 
     def _floor_contacts(self) -> tuple[str, ...]:
-        names = set()
-        for i in range(self.d.ncon):
-            c = self.d.contact[i]
-            if self._floor not in (c.geom1, c.geom2):
-                continue
-            other = c.geom2 if c.geom1 == self._floor else c.geom1
-            body = self.m.geom_bodyid[other]
-            if body in self._robot_bodies and self._foot_side(other) is None:
-                names.add(self.m.body(body).name[len(self.map.prefix):])
-        return tuple(sorted(names))
+        geoms = self.d.contact.geom  # (ncon, 2); the floor is the plane, always geom1 or geom2
+        touching = geoms[self._body_geom[geoms].any(axis=1) & (geoms == self._floor).any(axis=1)]
+        if not touching.size:
+            return ()
+        bodies = {int(self.m.geom_bodyid[g]) for g in touching.ravel() if self._body_geom[g]}
+        return tuple(sorted(self.m.body(b).name[len(self.map.prefix):] for b in bodies))
 
     def _lowest_foot_point(self) -> float:
         """Lowest world z of the feet's collision geometry (corners of each geom's bounding box)."""
@@ -187,7 +170,7 @@ class MujocoBackend(HardwareAdapter):
         for g in range(self.m.ngeom):
             if self.m.geom_contype[g] == 0 and self.m.geom_conaffinity[g] == 0:
                 continue
-            if self._foot_side(g) is None:
+            if self._geom_side[g] is None:
                 continue
             center, half = self.m.geom_aabb[g, :3], self.m.geom_aabb[g, 3:]
             local = center + corners * half

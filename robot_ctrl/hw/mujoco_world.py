@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
-from typing import Callable
 
 import mujoco
 
@@ -29,11 +28,6 @@ class MujocoWorld:
         self._want_viewer = viewer
         self._viewer = None
         self._wall0 = 0.0
-        self._after_substep: list[Callable[[], None]] = []
-
-    def on_substep(self, callback: Callable[[], None]) -> None:
-        """Call ``callback`` after every physics step (a backend tracking its servo demand)."""
-        self._after_substep.append(callback)
 
     def open_viewer(self) -> None:
         if self._want_viewer and self._viewer is None:
@@ -43,11 +37,10 @@ class MujocoWorld:
         self._wall0 = time.perf_counter() - self.d.time
 
     def step(self) -> None:
-        """Advance the physics by one control period."""
-        for _ in range(self.n_substeps):
-            mujoco.mj_step(self.m, self.d)
-            for callback in self._after_substep:
-                callback()
+        """Advance the physics by one control period, then compute the bodies' contact wrenches
+        (``cfrc_ext``, which ``mj_step`` leaves out) for the backends' force/torque readings."""
+        mujoco.mj_step(self.m, self.d, self.n_substeps)
+        mujoco.mj_rnePostConstraint(self.m, self.d)
         if self._viewer is not None:
             self._viewer.sync()
             lag = self.d.time - (time.perf_counter() - self._wall0)

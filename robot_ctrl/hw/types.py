@@ -39,8 +39,9 @@ class JointState:
       ``[fx, fy, fz, mx, my, mz]`` [N, N·m] expressed in the sole frame about its origin,
       as a force/torque sensor moved to the sole would read it.
     - ``tau``: torque applied by each joint's servo, after saturation [N·m].
-    - ``tau_demand``: per joint, the signed servo torque of largest magnitude demanded *before*
-      saturation since the last read [N·m] (simulation backends; shows a saturating servo).
+    - ``tau_demand``: per joint, the servo torque demanded *before* saturation at the read [N·m]
+      (simulation backends; shows a saturating servo). Sampled at the control rate, as a servo
+      driver reports it, not at every physics step.
     - ``floor_contacts``: names of bodies other than the feet that touch the floor (simulation).
     - ``temperature``: per joint, the servo's reported temperature [°C] (bus backends).
     """
@@ -82,14 +83,15 @@ class JointCommand:
 
     def validate(self, nj: int) -> None:
         """Raise CommandError unless every field has ``nj`` finite entries and gains are ≥ 0."""
-        for name in ("q", "dq", "kp", "kd", "tau_ff"):
-            value = np.asarray(getattr(self, name))
-            if value.shape != (nj,):
-                raise CommandError(f"JointCommand.{name} has shape {value.shape}, expected ({nj},)")
-            bad = np.flatnonzero(~np.isfinite(value))
-            if bad.size:
-                raise CommandError(f"JointCommand.{name} is not finite at joint indices {bad.tolist()}")
-        for name in ("kp", "kd"):
-            bad = np.flatnonzero(np.asarray(getattr(self, name)) < 0)
-            if bad.size:
-                raise CommandError(f"JointCommand.{name} must be >= 0; negative at joint indices {bad.tolist()}")
+        names = ("q", "dq", "kp", "kd", "tau_ff")
+        for name in names:
+            shape = np.shape(getattr(self, name))
+            if shape != (nj,):
+                raise CommandError(f"JointCommand.{name} has shape {shape}, expected ({nj},)")
+        values = np.array([getattr(self, name) for name in names], dtype=float)  # one check for all fields
+        if not np.isfinite(values).all():
+            name, bad = next((n, np.flatnonzero(~np.isfinite(v))) for n, v in zip(names, values) if not np.isfinite(v).all())
+            raise CommandError(f"JointCommand.{name} is not finite at joint indices {bad.tolist()}")
+        if (values[2:4] < 0).any():
+            name, bad = next((n, np.flatnonzero(v < 0)) for n, v in zip(names[2:4], values[2:4]) if (v < 0).any())
+            raise CommandError(f"JointCommand.{name} must be >= 0; negative at joint indices {bad.tolist()}")
