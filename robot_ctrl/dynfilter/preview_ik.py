@@ -22,7 +22,8 @@ import pinocchio as pin
 from scipy.linalg import lapack
 
 from robot_ctrl.robot.model import RobotModel
-from robot_ctrl.sot.whole_body_ik import SIDES
+from robot_ctrl.sot.whole_body_ik import SIDES, hand_tool_dofs
+
 POSTURE_WEIGHT = 1e-3  # μ: its bias on the tasks scales with μ², its pull in their null space does not (μ² ≫ λ)
 DAMPING = 1e-8  # λ
 _posv = lapack.dposv
@@ -35,6 +36,7 @@ class PreviewIK:
         self.data = model.createData()
         self.feet = [robot.frame_ids[f"{s}_foot"] for s in SIDES]
         self.waist = robot.frame_ids["waist"]
+        self.locked = hand_tool_dofs(robot)  # as in the controller's CoM task
         self.q = robot.q_half_sitting.copy()
         self._J = np.zeros((18, model.nv))
         self._e = np.zeros(18)
@@ -54,6 +56,7 @@ class PreviewIK:
             e[6 * k + 3 : 6 * k + 6] = pin.log3(target.rotation @ current.rotation.T)
             J[6 * k : 6 * k + 6] = pin.getFrameJacobian(model, data, frame, pin.LOCAL_WORLD_ALIGNED)
         J[12:15] = pin.jacobianCenterOfMass(model, data, False)  # from the joint Jacobians above
+        J[12:15, self.locked] = 0.0
         e[12:15] = com - data.com[0]
         e[15:18] = pin.log3(waist @ data.oMf[self.waist].rotation.T)
         J[15:18] = pin.getFrameJacobian(model, data, self.waist, pin.LOCAL_WORLD_ALIGNED)[3:]

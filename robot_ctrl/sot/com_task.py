@@ -9,11 +9,13 @@ from robot_ctrl.sot.task import Task
 
 
 class ComTask(Task):
-    """Error ``c* - c`` [m] (world frame), Jacobian ``∂c/∂v`` from Pinocchio. ``axes`` ⊂ {0, 1, 2}."""
+    """Error ``c* - c`` [m] (world frame), Jacobian ``∂c/∂v`` from Pinocchio. ``axes`` ⊂ {0, 1, 2};
+    ``locked_dofs``: velocity indices the task may not use (their Jacobian columns are zeroed)."""
 
-    def __init__(self, name: str = "com", axes=(0, 1, 2), **kw):
+    def __init__(self, name: str = "com", axes=(0, 1, 2), locked_dofs=(), **kw):
         super().__init__(name, **kw)
         self.axes = np.asarray(axes)
+        self.locked_dofs = np.asarray(locked_dofs, dtype=int)
         self.target = np.zeros(3)
         self.target_velocity = np.zeros(3)
 
@@ -22,7 +24,9 @@ class ComTask(Task):
         self.target_velocity = np.zeros(3) if velocity is None else np.asarray(velocity, dtype=float)
 
     def error_and_jacobian(self, model, data, q):
-        J = pin.jacobianCenterOfMass(model, data, q, False)  # also updates data.com[0]
+        # From the joint Jacobians the solver computed for q; also updates data.com[0].
+        J = pin.jacobianCenterOfMass(model, data, False)
+        J[:, self.locked_dofs] = 0.0
         return (self.target - data.com[0])[self.axes], J[self.axes]
 
     def feedforward(self):

@@ -26,6 +26,16 @@ from robot_ctrl.sot.solver import HierarchicalQP
 SIDES = ("left", "right")
 
 
+def hand_tool_dofs(robot: RobotModel) -> np.ndarray:
+    """Velocity indices of the joints beyond the hand frames (grippers). They carry too little mass
+    to serve balance, and a gripper rests on its joint limit: a balance task that used it would
+    push it into the bound on every tick. The posture task alone moves them."""
+    model = robot.pin
+    hands = {model.frames[robot.frame_ids[f"{s}_hand"]].parentJoint for s in SIDES}
+    return np.array([model.joints[j].idx_v for j in range(1, model.njoints)
+                     if any(h in model.supports[j] and h != j for h in hands)], dtype=int)
+
+
 #: A measured start configuration this close outside the URDF limits (encoder quantization,
 #: calibration) is clamped into them; farther out, the IK refuses it (``LimitViolation``).
 START_TOLERANCE = 0.01  # [rad]
@@ -42,7 +52,7 @@ class WholeBodyIK:
         self._stale = True
         ids = robot.frame_ids
         self.feet = {s: FrameTask(f"{s}_foot", ids[f"{s}_foot"], gain=gain) for s in SIDES}
-        self.com = ComTask(gain=gain)
+        self.com = ComTask(gain=gain, locked_dofs=hand_tool_dofs(robot))
         self.waist = FrameTask("waist", ids["waist"], axes=("rx", "ry", "rz"), gain=gain)
         self.hands = {s: FrameTask(f"{s}_hand", ids[f"{s}_hand"], axes=("x", "y", "z"), gain=gain) for s in SIDES}
         self.posture = PostureTask("posture", robot.q_index, robot.v_index, robot.pin.nv, gain=gain,
