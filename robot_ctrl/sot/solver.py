@@ -2,19 +2,32 @@
 
 Level k solves, over the velocity ``v`` (Pinocchio tangent space, nv)::
 
-    min_v  ½‖A_k v − b_k‖² + ½ μ‖v‖²
+    min_v  ½‖A_k v − b_k‖²  (+ ½ μ‖v‖² at the last level)
     s.t.   A_i v = A_i v*_i   for every higher level i   (keep what level i achieved)
            lo ≤ v_j ≤ hi      (joint position and velocity limits, at every level)
 
 The equalities are eliminated rather than passed to the QP: with ``N`` an orthonormal basis of
 the null space of the stacked higher-level matrices and ``v*`` the previous level's solution,
-``v = v* + N z`` satisfies them for any ``z``. Level k is then a QP in ``z`` with bounds only,
-``z = 0`` is feasible by construction, and the QPs shrink as the stack descends. ``N`` is updated
-level by level from a rank-revealing (column-pivoted) QR of the small projected matrix
-``(A_k N)ᵀ``, so rank-deficient levels are handled. When the unconstrained minimizer (a Cholesky
-solve) already satisfies every bound, it is the QP's solution and quadprog is skipped.
-μ is a small regularization that keeps the Hessian positive definite. The returned ``v`` is
-clipped to the bounds, so limits hold exactly and higher levels hold to solver tolerance.
+``v = v* + N z`` satisfies them for any ``z``. Level k is then a problem in ``z`` with bounds only,
+``z = 0`` is feasible by construction, and the problems shrink as the stack descends. A
+rank-revealing (column-pivoted) QR of the small projected matrix ``(A_k N)ᵀ`` gives both the
+level's exact minimum-norm solution (when ``A_k N`` has full row rank) and the next ``N``. When
+that solution breaks a bound, or the level is rank-deficient, or it is the last level, the level
+is the QP with the regularization μ (which keeps its Hessian positive definite); quadprog is
+skipped when the QP's unconstrained minimizer (a Cholesky solve) already meets every bound. The
+returned ``v`` is clipped to the bounds, so limits hold exactly and higher levels hold to solver
+tolerance.
+
+Fast path, tried first: when every level but the last can be met exactly within the bounds (the
+usual case: feet and balance tasks are reachable), the hierarchy's solution is the minimizer of
+the last level on ``{v : E v = f}`` (E, f the stacked higher levels), one KKT system::
+
+    [G  Eᵀ] [ v]   [a]
+    [E  0 ] [−λ] = [f],    G = A_Lᵀ A_L + μ I,  a = A_Lᵀ b_L
+
+It is accepted when it meets the higher levels (relative residual ≤ ``EXACT_TOL``) and the bounds;
+otherwise (a higher level out of reach, singular, or held back by a bound) the levels are solved
+one by one as above. Both give the same solution where both apply.
 """
 
 from __future__ import annotations
@@ -30,8 +43,9 @@ from robot_ctrl.sot.joint_limits import JointLimits, LimitViolation
 from robot_ctrl.sot.task import Task
 
 BOUND_SLACK = 1e-10  # [rad/s] relaxation of the bounds inside each QP (see solve)
+EXACT_TOL = 1e-9  # relative residual of the higher levels that the fast path must reach
 
-_geqp3, _orgqr, _posv = lapack.dgeqp3, lapack.dorgqr, lapack.dposv
+_geqp3, _orgqr, _posv, _trtrs, _gesv = lapack.dgeqp3, lapack.dorgqr, lapack.dposv, lapack.dtrtrs, lapack.dgesv
 
 
 class InfeasibleError(RuntimeError):
@@ -77,26 +91,59 @@ class HierarchicalQP:
         pin.computeJointJacobians(model, data, q)
         pin.updateFramePlacements(model, data)
         bounded = self.limits.v_index
+        levels = [tasks for tasks in ([t for t in level if t.active] for level in self.levels) if tasks]
+        stacked = [_stack([t.rows(model, data, q) for t in tasks]) for tasks in levels]
+        self.last = [LevelResult([t.name for t in tasks], False, A, b) for tasks, (A, b) in zip(levels, stacked)]
+        v = self._solve_exact_upper(stacked, lo, hi, bounded)
+        if v is not None:
+            return v
         v = np.zeros(model.nv)
         N = None  # basis of the directions the higher levels leave free; None = identity
-        self.last = []
-        levels = [tasks for tasks in ([t for t in level if t.active] for level in self.levels) if tasks]
-        for k, tasks in enumerate(levels):
-            rows = [t.rows(model, data, q) for t in tasks]
-            A = np.vstack([r[0] for r in rows]) if len(rows) > 1 else rows[0][0]
-            b = np.concatenate([r[1] for r in rows]) if len(rows) > 1 else rows[0][1]
+        for k, (tasks, (A, b)) in enumerate(zip(levels, stacked)):
             AN = A if N is None else A @ N
-            G = AN.T @ AN
-            G.flat[:: G.shape[0] + 1] += self.mu
-            a = AN.T @ (b - A @ v) - self.mu * (v if N is None else N.T @ v)
-            z, used_qp = self._solve_level(k, tasks, G, a, N, v[bounded], lo, hi, bounded)
+            r = b - A @ v
+            last = k == len(levels) - 1
+            z = None
+            if not last:
+                qr = _PivotedQR(AN, self.rank_tol)
+                z = qr.min_norm_solution(r)
+                if z is not None:
+                    vz = v[bounded] + (z[bounded] if N is None else N[bounded] @ z)
+                    if not ((vz >= lo) & (vz <= hi)).all():
+                        z = None
+            if z is None:
+                G = AN.T @ AN
+                G.flat[:: G.shape[0] + 1] += self.mu
+                a = AN.T @ r - self.mu * (v if N is None else N.T @ v)
+                z, self.last[k].used_qp = self._solve_level(k, tasks, G, a, N, v[bounded], lo, hi, bounded)
             v = v + (z if N is None else N @ z)
-            self.last.append(LevelResult([t.name for t in tasks], used_qp, A, b))
-            if k < len(levels) - 1:
-                N = _null_space_update(N, AN, self.rank_tol)
+            if not last:
+                N = qr.null_space(N)
                 if N.shape[1] == 0:
                     break
         v[bounded] = np.clip(v[bounded], lo, hi)
+        return v
+
+    def _solve_exact_upper(self, stacked, lo, hi, bounded) -> np.ndarray | None:
+        """The fast path (module docstring): ``v``, or None when it does not apply."""
+        if len(stacked) < 2:
+            return None
+        E = np.vstack([A for A, _ in stacked[:-1]])
+        f = np.concatenate([b for _, b in stacked[:-1]])
+        A, b = stacked[-1]
+        n, m = A.shape[1], E.shape[0]
+        K = np.zeros((n + m, n + m))
+        K[:n, :n] = A.T @ A
+        K.flat[: n * (n + m + 1) : n + m + 1] += self.mu  # μ on G's diagonal
+        K[:n, n:] = E.T
+        K[n:, :n] = E
+        rhs = np.concatenate([A.T @ b, f])
+        _, _, x, info = _gesv(K, rhs)
+        v = x[:n]
+        vb = v[bounded]
+        if not (info == 0 and np.all((vb >= lo) & (vb <= hi)) and
+                np.linalg.norm(E @ v - f) <= EXACT_TOL * (1.0 + np.linalg.norm(f))):
+            return None
         return v
 
     def _solve_level(self, k, tasks, G, a, N, vb, lo, hi, bounded) -> tuple[np.ndarray, bool]:
@@ -122,14 +169,37 @@ class HierarchicalQP:
         return z, True
 
 
-def _null_space_update(N: np.ndarray | None, AN: np.ndarray, tol: float) -> np.ndarray:
-    """Basis of ``{N z : A N z = 0}`` from a column-pivoted QR of ``(A N)ᵀ`` (rank-revealing)."""
-    r, m = AN.shape[1], AN.shape[0]
-    qr, _, tau, _, info = _geqp3(np.asfortranarray(AN.T))
-    diag = np.abs(np.diag(qr[: min(r, m), : min(r, m)]))
-    rank = int(np.sum(diag > tol * max(1.0, diag[0] if diag.size else 0.0)))
-    full = np.zeros((r, r), order="F")
-    full[:, : min(r, m)] = qr[:, : min(r, m)]
-    Q, _, info = _orgqr(full, tau)
-    basis = Q[:, rank:]
-    return basis if N is None else N @ basis
+def _stack(rows: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndarray]:
+    """One level's ``(A, b)`` from its tasks' rows."""
+    if len(rows) == 1:
+        return rows[0]
+    return np.vstack([r[0] for r in rows]), np.concatenate([r[1] for r in rows])
+
+
+class _PivotedQR:
+    """Column-pivoted QR ``(A N)ᵀ Π = Q R`` of one level's projected matrix (rank-revealing)."""
+
+    def __init__(self, AN: np.ndarray, tol: float):
+        m, n = AN.shape
+        qr, self.perm, tau, _, _ = _geqp3(np.asfortranarray(AN.T))
+        k = min(n, m)
+        diag = np.abs(np.diag(qr[:k, :k]))
+        self.rank = int(np.sum(diag > tol * max(1.0, diag[0] if diag.size else 0.0)))
+        self.rows = m
+        self.R = qr[:k, :k]
+        full = np.zeros((n, n), order="F")
+        full[:, :k] = qr[:, :k]
+        self.Q, _, _ = _orgqr(full, tau)
+
+    def min_norm_solution(self, r: np.ndarray) -> np.ndarray | None:
+        """Minimum-norm ``z`` with ``A N z = r``, None unless ``A N`` has full row rank:
+        ``A N = Π Rᵀ Qᵀ`` gives ``z = Q R⁻ᵀ Πᵀ r``."""
+        if self.rank < self.rows:
+            return None
+        y, info = _trtrs(self.R, r[self.perm - 1][:, None], trans=1)  # LAPACK's pivots are 1-based
+        return self.Q[:, : self.rows] @ y[:, 0] if info == 0 else None
+
+    def null_space(self, N: np.ndarray | None) -> np.ndarray:
+        """Basis of ``{N z : A N z = 0}``."""
+        basis = self.Q[:, self.rank :]
+        return basis if N is None else N @ basis
