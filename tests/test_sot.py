@@ -121,3 +121,26 @@ def test_whole_body_ik_reaches_the_demo_hand_target(talos):
     assert np.linalg.norm(ik.com_position() - com0) < 1e-6
     for s in ("left", "right"):
         assert np.linalg.norm(pin.log6(feet0[s].actInv(ik.pose(f"{s}_foot"))).vector) < 1e-6
+
+
+def test_fast_path_gives_the_level_by_level_solution(talos, tasks, monkeypatch):
+    """Reachable feet and CoM targets: the one-KKT solve equals the level-by-level hierarchy."""
+    feet, com, hand, posture = tasks
+    data = talos.pin.createData()
+    rng = np.random.default_rng(2)
+    q = perturbed_half_sitting(talos, rng)
+    pin.framesForwardKinematics(talos.pin, data, q)
+    for f in feet:
+        f.set_target(data.oMf[f.frame_id].copy())
+    com.set_target(pin.centerOfMass(talos.pin, data, q) + [0.002, -0.001, 0.0])
+    posture.set_target(q[talos.q_index] + rng.uniform(-0.01, 0.01, talos.nj))  # well inside the velocity limits
+    solver = HierarchicalQP([feet, [com], [posture]], JointLimits.from_robot(talos))
+    taken = []
+    exact_upper = solver._solve_exact_upper
+    monkeypatch.setattr(solver, "_solve_exact_upper", lambda *args: taken.append(exact_upper(*args)) or taken[-1])
+    fast = solver.solve(talos.pin, data, q, DT)
+    assert taken[0] is not None  # the fast path applied
+    monkeypatch.setattr(solver, "_solve_exact_upper", lambda *args: None)
+    by_level = solver.solve(talos.pin, data, q, DT)
+    assert np.linalg.norm(fast) > 0.1  # the CoM and posture tasks really move the robot
+    np.testing.assert_allclose(fast, by_level, atol=1e-8)
