@@ -63,6 +63,11 @@ class MujocoBackend(HardwareAdapter):
             raise ValueError("the robot's actuators must be contiguous and in joint order in the MuJoCo model")
         self._acts = slice(int(self._act[0]), int(self._act[0]) + self.nj)  # views, not copies
         self._servo = None  # (kp, kd, kp q_des + kd dq_des + tau_ff) of the last command
+        # Actuator length and velocity at each physics step of the last control period (copied,
+        # not computed, per step: the demand is evaluated once, at the read).
+        self._servo_q = np.zeros((self.world.n_substeps, self.nj))
+        self._servo_dq = np.zeros((self.world.n_substeps, self.nj))
+        self.world.on_substep(self._record_servo)
 
     # Lifecycle hooks --------------------------------------------------------------------------
     def _on_configure(self) -> None:
@@ -77,6 +82,8 @@ class MujocoBackend(HardwareAdapter):
         self.d.qpos[self.map.base_qpos + 2] -= self._lowest_foot_point()
         mujoco.mj_forward(self.m, self.d)
         mujoco.mj_rnePostConstraint(self.m, self.d)  # contact wrenches for the first read
+        self._servo_q[:] = self.d.actuator_length[self._acts]
+        self._servo_dq[:] = self.d.actuator_velocity[self._acts]
         self._apply_gains(self.robot.kp, self.robot.kd, np.zeros(self.nj), np.zeros(self.nj))
         self.d.ctrl[self._act] = self.d.qpos[self.map.qpos]
 
@@ -108,12 +115,19 @@ class MujocoBackend(HardwareAdapter):
         if self._owns_world:
             self.world.step()
 
-    def _demand(self, q: np.ndarray, dq: np.ndarray) -> np.ndarray | None:
-        """Unsaturated servo torque at the read: kp q_des + (kd dq_des + tau_ff) − kp q − kd dq."""
+    def _record_servo(self, i: int) -> None:
+        self._servo_q[i] = self.d.actuator_length[self._acts]
+        self._servo_dq[i] = self.d.actuator_velocity[self._acts]
+
+    def _peak_demand(self) -> np.ndarray | None:
+        """Per joint, the unsaturated servo torque of largest magnitude over the physics steps of
+        the last control period: kp q_des + (kd dq_des + tau_ff) − kp q − kd dq, with the q and dq
+        MuJoCo computed the servo force from at each step."""
         if self._servo is None:
             return None
         kp, kd, constant = self._servo
-        return constant - kp * q - kd * dq
+        demand = constant - kp * self._servo_q - kd * self._servo_dq
+        return demand[np.abs(demand).argmax(axis=0), np.arange(self.nj)]
 
     def _read(self) -> JointState:
         m, d, mp = self.m, self.d, self.map
@@ -132,7 +146,7 @@ class MujocoBackend(HardwareAdapter):
             base_angvel=d.qvel[v + 3 : v + 6].copy(),  # MuJoCo's free-joint angular velocity is body-frame
             base_linacc=rot.T @ (d.qacc[v : v + 3] - m.opt.gravity),
             foot_wrench=self._foot_wrenches(),
-            tau_demand=self._demand(q, dq),
+            tau_demand=self._peak_demand(),
             floor_contacts=self._floor_contacts(),
         )
 

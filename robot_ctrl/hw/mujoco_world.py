@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
+from typing import Callable
 
 import mujoco
 
@@ -28,6 +29,12 @@ class MujocoWorld:
         self._want_viewer = viewer
         self._viewer = None
         self._wall0 = 0.0
+        self._after_substep: list[Callable[[int], None]] = []
+
+    def on_substep(self, callback: Callable[[int], None]) -> None:
+        """Call ``callback(i)`` after physics step i of each control period (a backend recording
+        its servo demand)."""
+        self._after_substep.append(callback)
 
     def open_viewer(self) -> None:
         if self._want_viewer and self._viewer is None:
@@ -39,7 +46,10 @@ class MujocoWorld:
     def step(self) -> None:
         """Advance the physics by one control period, then compute the bodies' contact wrenches
         (``cfrc_ext``, which ``mj_step`` leaves out) for the backends' force/torque readings."""
-        mujoco.mj_step(self.m, self.d, self.n_substeps)
+        for i in range(self.n_substeps):
+            mujoco.mj_step(self.m, self.d)
+            for callback in self._after_substep:
+                callback(i)
         mujoco.mj_rnePostConstraint(self.m, self.d)
         if self._viewer is not None:
             self._viewer.sync()

@@ -39,9 +39,8 @@ class JointState:
       ``[fx, fy, fz, mx, my, mz]`` [N, N·m] expressed in the sole frame about its origin,
       as a force/torque sensor moved to the sole would read it.
     - ``tau``: torque applied by each joint's servo, after saturation [N·m].
-    - ``tau_demand``: per joint, the servo torque demanded *before* saturation at the read [N·m]
-      (simulation backends; shows a saturating servo). Sampled at the control rate, as a servo
-      driver reports it, not at every physics step.
+    - ``tau_demand``: per joint, the signed servo torque of largest magnitude demanded *before*
+      saturation over the last control period [N·m] (simulation backends; shows a saturating servo).
     - ``floor_contacts``: names of bodies other than the feet that touch the floor (simulation).
     - ``temperature``: per joint, the servo's reported temperature [°C] (bus backends).
     """
