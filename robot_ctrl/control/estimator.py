@@ -72,11 +72,10 @@ def measured_zmp(contacts: dict[str, tuple[pin.SE3, np.ndarray]]) -> np.ndarray 
     Each wrench ``[f, m]`` (sole frame, about the sole origin) is moved to the world origin; with
     total force F and moment M there, the ZMP on z = 0 is ``(−M_y / F_z, M_x / F_z)``.
     """
-    force, moment = np.zeros(3), np.zeros(3)
-    for pose, w in contacts.values():
-        f = pose.rotation @ w[:3]
-        force += f
-        moment += pose.rotation @ w[3:] + np.cross(pose.translation, f)
+    if not contacts:
+        return None
+    world = sum((pose.act(pin.Force(w)) for pose, w in contacts.values()), pin.Force.Zero())  # about the origin
+    force, moment = world.linear, world.angular
     if force[2] <= 1e-6:
         return None
     return np.array([-moment[1] / force[2], moment[0] / force[2]])

@@ -10,15 +10,18 @@ import numpy as np
 from robot_ctrl.wpg.footstep import rotation
 
 
+_CLOCKWISE = np.array([[0.0, -1.0], [1.0, 0.0]])  # row vector (x, y) @ it = (y, −x)
+_HALF_SOLE = np.array([[1, 1], [-1, 1], [-1, -1], [1, -1]], dtype=float)
+
+
 def sole_corners(center: np.ndarray, yaw: float, length: float, width: float) -> np.ndarray:
     """The four corners (4×2) of a sole rectangle centred at ``center`` with heading ``yaw``."""
-    half = np.array([[1, 1], [-1, 1], [-1, -1], [1, -1]]) * [length / 2, width / 2]
-    return center + half @ rotation(yaw).T
+    return center + (_HALF_SOLE * (0.5 * length, 0.5 * width)) @ rotation(yaw).T
 
 
 def convex_hull(points: np.ndarray) -> np.ndarray:
     """Counter-clockwise convex hull of 2D points (Andrew's monotone chain)."""
-    pts = sorted(map(tuple, np.round(points, 12)))
+    pts = sorted(map(tuple, np.round(points, 12).tolist()))  # Python floats: fast in the loops below
     if len(pts) <= 2:
         return np.array(pts)
 
@@ -53,14 +56,16 @@ class SupportPolygon:
     @cached_property
     def halfplanes(self) -> tuple[np.ndarray, np.ndarray]:
         v = self.vertices
-        edges = np.roll(v, -1, axis=0) - v
-        normals = np.stack([edges[:, 1], -edges[:, 0]], axis=1)  # outward for CCW order
-        normals /= np.linalg.norm(normals, axis=1, keepdims=True)
-        return normals, np.einsum("ij,ij->i", normals, v)
+        edges = np.empty_like(v)
+        edges[:-1] = v[1:] - v[:-1]
+        edges[-1] = v[0] - v[-1]
+        normals = edges @ _CLOCKWISE  # (dy, −dx): outward for CCW order
+        normals /= np.sqrt((normals * normals).sum(axis=1))[:, None]
+        return normals, (normals * v).sum(axis=1)
 
     def contains(self, p: np.ndarray, tol: float = 1e-9) -> bool:
         H, h = self.halfplanes
-        return bool(np.all(H @ p <= h + tol))
+        return bool((H @ p <= h + tol).all())
 
     def distance_inside(self, p: np.ndarray) -> float:
         """Signed distance to the boundary: positive inside [m]."""
