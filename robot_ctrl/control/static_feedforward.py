@@ -21,6 +21,9 @@ from __future__ import annotations
 
 import numpy as np
 import pinocchio as pin
+from scipy.linalg import lapack
+
+_posv = lapack.dposv
 
 
 def static_torques(model: pin.Model, data: pin.Data, q: np.ndarray, sole_frames: list[int],
@@ -33,21 +36,25 @@ def static_torques(model: pin.Model, data: pin.Data, q: np.ndarray, sole_frames:
     alpha = np.asarray(shares, dtype=float)
     alpha = alpha / alpha.sum()
     gravity = model.gravity.linear.copy()
-    if com_acceleration is not None:
-        model.gravity.linear = gravity - com_acceleration
+    effective = gravity if com_acceleration is None else gravity - com_acceleration
+    model.gravity.linear = effective
     try:
         g = pin.computeGeneralizedGravity(model, data, q).copy()
-        weight = pin.computeTotalMass(model) * np.linalg.norm(model.gravity.linear)
     finally:
         model.gravity.linear = gravity
+    weight = pin.computeTotalMass(model) * float(np.sqrt(effective @ effective))
     pin.computeJointJacobians(model, data, q)
     pin.updateFramePlacements(model, data)
     J = np.vstack([pin.getFrameJacobian(model, data, f, pin.LOCAL) for f in sole_frames])  # (6k, nv)
-    f_ref = np.concatenate([a * np.array([0.0, 0.0, weight, 0.0, 0.0, 0.0]) for a in alpha])
+    f_ref = np.zeros(J.shape[0])
+    f_ref[2::6] = alpha * weight
     Jb = J[:, :6].T  # (6, 6k)
     W = np.repeat(alpha, 6)
     residual = g[:6] - Jb @ f_ref
-    f = f_ref + W * (Jb.T @ np.linalg.solve((Jb * W) @ Jb.T, residual))
+    _, y, info = _posv((Jb * W) @ Jb.T, residual)  # symmetric positive definite (6 × 6)
+    if info != 0:
+        raise np.linalg.LinAlgError(f"static feedforward: singular contact Jacobian (LAPACK posv info {info})")
+    f = f_ref + W * (Jb.T @ y)
     tau = g - J.T @ f
     return tau, list(f.reshape(-1, 6))
 
