@@ -67,11 +67,12 @@ class DynamicFilter:
         reference = np.array([s.zmp for s in preview])
         weights = np.array([1.0 if s.single_support else DOUBLE_SUPPORT_WEIGHT for s in preview[1:]])
         frozen = posture(t0)
+        targets = _sample_targets(preview, sole_height,
+                                  lambda t: posture(t0 + t) if self.mode == "full" else frozen)
         self.pass_rms = []
         for _ in range(self.passes):
             offsets = self.correction.offsets(T)
-            qs = self._whole_body(preview, offsets, q_ref, com_z, sole_height,
-                                  lambda t: posture(t0 + t) if self.mode == "full" else frozen, T)
+            qs = self._whole_body(preview, offsets, targets, q_ref, com_z)
             zmp = trajectory_zmp(self.robot.pin, self._data, qs, T)
             error = zmp - reference[1:-1]  # samples 1..N−1
             self.last_error = error
@@ -85,19 +86,27 @@ class DynamicFilter:
             return np.zeros(2), np.zeros(2)
         return self.correction.at(tau)
 
-    def _whole_body(self, preview, offsets, q_ref, com_z, sole_height, posture, T) -> list[np.ndarray]:
+    def _whole_body(self, preview, offsets, targets, q_ref, com_z) -> list[np.ndarray]:
         ik = self._ik
         ik.set_configuration(q_ref)
         qs = []
-        for sample, offset in zip(preview, offsets):
-            feet = [pin.SE3(pin.utils.rpyToMatrix(0.0, 0.0, sample.feet[s][1]),
-                            sample.feet[s][0] + [0.0, 0.0, sole_height]) for s in SIDES]
-            yaw = np.arctan2(sum(np.sin(sample.feet[s][1]) for s in SIDES), sum(np.cos(sample.feet[s][1]) for s in SIDES))
+        for sample, offset, (feet, waist, posture) in zip(preview, offsets, targets):
             com = np.array([*(sample.com + offset), com_z])
-            target = posture(sample.t)
             # Sample 0 starts from the controller's reference, which the stabilizer has moved off the
             # plan: converge onto the plan first, so the trajectory does not begin with a jump.
             for _ in range(1 if qs else 3):
-                ik.step(feet, com, pin.utils.rpyToMatrix(0.0, 0.0, yaw), target)
+                ik.step(feet, com, waist, posture)
             qs.append(ik.q.copy())
         return qs
+
+
+def _sample_targets(preview, sole_height: float, posture) -> list[tuple[list[pin.SE3], np.ndarray, np.ndarray]]:
+    """Per preview sample, the IK targets every pass shares: sole poses (left, right; world frame),
+    waist rotation (the feet's mean heading) and the posture (``posture(t)``, joint order)."""
+    targets = []
+    for sample in preview:
+        feet = [pin.SE3(pin.utils.rpyToMatrix(0.0, 0.0, sample.feet[s][1]),
+                        sample.feet[s][0] + [0.0, 0.0, sole_height]) for s in SIDES]
+        yaw = np.arctan2(sum(np.sin(sample.feet[s][1]) for s in SIDES), sum(np.cos(sample.feet[s][1]) for s in SIDES))
+        targets.append((feet, pin.utils.rpyToMatrix(0.0, 0.0, yaw), posture(sample.t)))
+    return targets

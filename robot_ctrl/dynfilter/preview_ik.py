@@ -40,6 +40,8 @@ class PreviewIK:
         self.q = robot.q_half_sitting.copy()
         self._J = np.zeros((18, model.nv))
         self._e = np.zeros(18)
+        self._diagonal = np.full(model.nv, DAMPING)  # λ I + μ² PᵀP
+        self._diagonal[robot.v_index] += POSTURE_WEIGHT**2
 
     def set_configuration(self, q: np.ndarray) -> None:
         self.q = np.array(q, dtype=float)
@@ -61,8 +63,7 @@ class PreviewIK:
         e[15:18] = pin.log3(waist @ data.oMf[self.waist].rotation.T)
         J[15:18] = pin.getFrameJacobian(model, data, self.waist, pin.LOCAL_WORLD_ALIGNED)[3:]
         H = J.T @ J
-        H.flat[:: H.shape[0] + 1] += DAMPING
-        H[robot.v_index, robot.v_index] += POSTURE_WEIGHT**2
+        H.flat[:: H.shape[0] + 1] += self._diagonal
         g = J.T @ e
         g[robot.v_index] += POSTURE_WEIGHT**2 * (posture - q[robot.q_index])
         _, dv, info = _posv(H, g)
