@@ -22,6 +22,7 @@ class FrameTask(Task):
         super().__init__(name, **kw)
         self.frame_id = frame_id
         self.rows_idx = np.array([_AXES[a] for a in axes])
+        self._all_rows = self.rows_idx.tolist() == list(range(6))
         self.target = pin.SE3.Identity()
         self.target_velocity = np.zeros(6)  # [linear (m/s), angular (rad/s)] in the world frame
 
@@ -35,7 +36,9 @@ class FrameTask(Task):
         e[:3] = self.target.translation - current.translation
         e[3:] = pin.log3(self.target.rotation @ current.rotation.T)
         J = pin.getFrameJacobian(model, data, self.frame_id, pin.LOCAL_WORLD_ALIGNED)
+        if self._all_rows:
+            return e, J
         return e[self.rows_idx], J[self.rows_idx]
 
     def feedforward(self):
-        return self.target_velocity[self.rows_idx]
+        return self.target_velocity if self._all_rows else self.target_velocity[self.rows_idx]

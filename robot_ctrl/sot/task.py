@@ -33,4 +33,5 @@ class Task(ABC):
     def rows(self, model: pin.Model, data: pin.Data, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Weighted least-squares rows ``(A, b)`` with ``A v ≈ b``."""
         e, J = self.error_and_jacobian(model, data, q)
-        return self.weight * J, self.weight * (self.gain * e + self.feedforward())
+        b = self.gain * e + self.feedforward()
+        return (J, b) if self.weight == 1.0 else (self.weight * J, self.weight * b)
