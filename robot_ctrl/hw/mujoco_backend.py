@@ -102,7 +102,7 @@ class MujocoBackend(HardwareAdapter):
 
     # Read / write -----------------------------------------------------------------------------
     def _apply_gains(self, kp, kd, dq, tau_ff) -> None:
-        a = self._act
+        a = self._acts
         self.m.actuator_gainprm[a, 0] = kp
         self.m.actuator_biasprm[a, 1] = -kp
         self.m.actuator_biasprm[a, 2] = -kd
@@ -110,7 +110,7 @@ class MujocoBackend(HardwareAdapter):
 
     def _write(self, cmd: JointCommand) -> None:
         self._apply_gains(cmd.kp, cmd.kd, cmd.dq, cmd.tau_ff)
-        self.d.ctrl[self._act] = cmd.q
+        self.d.ctrl[self._acts] = cmd.q
         self._servo = (cmd.kp, cmd.kd, cmd.kp * cmd.q + self.m.actuator_biasprm[self._acts, 0])
         if self._owns_world:
             self.world.step()
@@ -139,7 +139,7 @@ class MujocoBackend(HardwareAdapter):
             t=float(d.time),
             q=q,
             dq=dq,
-            tau=d.actuator_force[self._act].copy(),
+            tau=d.actuator_force[self._acts].copy(),
             base_pos=d.qpos[b : b + 3].copy(),
             base_quat_xyzw=np.array([wxyz[1], wxyz[2], wxyz[3], wxyz[0]]),
             base_linvel=d.qvel[v : v + 3].copy(),
