@@ -56,7 +56,7 @@ class MujocoBackend(HardwareAdapter):
         weld = self.m.body_weldid[self.m.geom_bodyid]
         self._geom_side = [next((side for side, foot in foot_weld.items() if w == foot), None) for w in weld]
         # Geoms of this robot outside its feet: their floor contacts are reported (falls).
-        self._body_geom = np.array([side is None and b in self._robot_bodies
+        self._non_foot_geom = np.array([side is None and b in self._robot_bodies
                                     for side, b in zip(self._geom_side, self.m.geom_bodyid)])
         self._act = self.map.actuator
         if not np.array_equal(self._act, np.arange(self._act[0], self._act[0] + self.nj)):
@@ -134,7 +134,7 @@ class MujocoBackend(HardwareAdapter):
         b, v = mp.base_qpos, mp.base_dof
         wxyz = d.qpos[b + 3 : b + 7]
         rot = d.xmat[mp.base_body].reshape(3, 3)
-        q, dq = d.qpos[mp.qpos], d.qvel[mp.dof]
+        q, dq = d.qpos[mp.qpos], d.qvel[mp.dof]  # index arrays: copies, not views of the simulation
         return JointState(
             t=float(d.time),
             q=q,
@@ -152,8 +152,8 @@ class MujocoBackend(HardwareAdapter):
 
     # Contacts -----------------------------------------------------------------------------------
     def _foot_wrenches(self) -> dict[str, np.ndarray]:
-        """Contact wrench on each foot, in the sole frame about the sole origin, as a force/torque
-        sensor at the sole reads it. MuJoCo's ``cfrc_ext`` holds each body's contact wrench
+        """Contact wrench on each foot (from the floor and anything else it touches), in the sole
+        frame about the sole origin, as a force/torque sensor at the sole reads it. MuJoCo's ``cfrc_ext`` holds each body's contact wrench
         ``[torque, force]`` in world axes about the subtree CoM ``c`` of the robot's root; about the
         sole origin ``p`` the torque is ``τ + (c − p) × f``."""
         d = self.d
@@ -170,11 +170,11 @@ class MujocoBackend(HardwareAdapter):
         return out
 
     def _floor_contacts(self) -> tuple[str, ...]:
-        geoms = self.d.contact.geom  # (ncon, 2); the floor is the plane, always geom1 or geom2
-        touching = geoms[self._body_geom[geoms].any(axis=1) & (geoms == self._floor).any(axis=1)]
+        geoms = self.d.contact.geom  # (ncon, 2)
+        touching = geoms[self._non_foot_geom[geoms].any(axis=1) & (geoms == self._floor).any(axis=1)]
         if not touching.size:
             return ()
-        bodies = {int(self.m.geom_bodyid[g]) for g in touching.ravel() if self._body_geom[g]}
+        bodies = {int(self.m.geom_bodyid[g]) for g in touching.ravel() if self._non_foot_geom[g]}
         return tuple(sorted(self.m.body(b).name[len(self.map.prefix):] for b in bodies))
 
     def _lowest_foot_point(self) -> float:

@@ -35,7 +35,8 @@ class JointState:
     - ``base_linvel`` [m/s]: base-link origin velocity in the world frame.
     - ``base_angvel`` [rad/s], ``base_linacc`` [m/s²]: gyro and accelerometer (proper
       acceleration, gravity included) in the base-link frame, as an IMU on the base reads them.
-    - ``foot_wrench``: per side ("left"/"right"), the contact wrench the floor exerts on the foot,
+    - ``foot_wrench``: per side ("left"/"right"), the contact wrench on the foot (the floor's, and
+      that of anything else the foot touches),
       ``[fx, fy, fz, mx, my, mz]`` [N, N·m] expressed in the sole frame about its origin,
       as a force/torque sensor moved to the sole would read it.
     - ``tau``: torque applied by each joint's servo, after saturation [N·m].
