@@ -107,10 +107,8 @@ class HierarchicalQP:
             if not last:
                 qr = _PivotedQR(AN, self.rank_tol)
                 z = qr.min_norm_solution(r)
-                if z is not None:
-                    vz = v[bounded] + (z[bounded] if N is None else N[bounded] @ z)
-                    if not ((vz >= lo) & (vz <= hi)).all():
-                        z = None
+                if z is not None and not _meets_bounds(v[bounded], z, N, bounded, lo, hi):
+                    z = None
             if z is None:
                 G = AN.T @ AN
                 G.flat[:: G.shape[0] + 1] += self.mu
@@ -148,10 +146,8 @@ class HierarchicalQP:
 
     def _solve_level(self, k, tasks, G, a, N, vb, lo, hi, bounded) -> tuple[np.ndarray, bool]:
         _, z, info = _posv(G, a)
-        if info == 0:
-            vz = vb + (z[bounded] if N is None else N[bounded] @ z)
-            if ((vz >= lo - BOUND_SLACK) & (vz <= hi + BOUND_SLACK)).all():
-                return z, False
+        if info == 0 and _meets_bounds(vb, z, N, bounded, lo, hi, BOUND_SLACK):
+            return z, False
         Nb = np.eye(G.shape[0])[bounded] if N is None else N[bounded]
         # A dof that the higher levels fix (zero row of N) already meets its bounds and cannot move:
         # its near-zero rows would only make the QP degenerate.
@@ -167,6 +163,12 @@ class HierarchicalQP:
         except ValueError as exc:
             raise InfeasibleError(k, f"{exc} (tasks {[t.name for t in tasks]})") from exc
         return z, True
+
+
+def _meets_bounds(vb, z, N, bounded, lo, hi, slack: float = 0.0) -> bool:
+    """Whether the bounded dofs of ``v + N z`` (``vb``: those of ``v``) lie in ``[lo − slack, hi + slack]``."""
+    vz = vb + (z[bounded] if N is None else N[bounded] @ z)
+    return bool(((vz >= lo - slack) & (vz <= hi + slack)).all())
 
 
 def _stack(rows: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndarray]:
