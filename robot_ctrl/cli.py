@@ -45,7 +45,8 @@ def _walk(args: argparse.Namespace) -> int:
     _check_viewer(args)
     robot = load_robot(args.robot)
     report = run_walk(robot, MujocoBackend(robot, viewer=args.viewer), goal, stabilize=not args.no_stabilizer,
-                      out_dir=args.out, arms=args.arms, dynfilter=args.dynfilter, dynfilter_passes=args.dynfilter_passes)
+                      out_dir=args.out, arms=args.arms, dynfilter=args.dynfilter, dynfilter_passes=args.dynfilter_passes,
+                      dynfilter_worker=not args.dynfilter_inline)
     return 1 if report["fell"] else 0
 
 
@@ -353,6 +354,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--dynfilter", choices=("off", "legs", "full"), default="off",
                    help="dynamic filter: off, legs only (upper body frozen in its preview) or full body")
     p.add_argument("--dynfilter-passes", type=int, default=2, help="filter passes per WPG sample (1..10)")
+    p.add_argument("--dynfilter-inline", action="store_true",
+                   help="run the filter in the control loop, its correction applied in the sample it was "
+                        "computed for (default: in a worker process on another core, one 0.1 s sample behind)")
     p.add_argument("--viewer", action="store_true", help="open the MuJoCo viewer (needs a display)")
     p.add_argument("--out", type=Path, help="write DIR/report.json")
     p.set_defaults(run=_walk)

@@ -7,6 +7,7 @@ import pytest
 
 from robot_ctrl.control.walking_controller import WalkingController
 from robot_ctrl.dynfilter.dynamic_filter import DynamicFilter
+from robot_ctrl.dynfilter.filter_worker import DynamicFilterWorker
 from robot_ctrl.dynfilter.multibody_zmp import multibody_zmp
 from robot_ctrl.hw.mujoco_backend import MujocoBackend
 
@@ -61,6 +62,60 @@ def test_filter_passes_reduce_the_zmp_error_of_a_recorded_plan(talos):
     assert last < 0.5 * first
     offset, _ = dynfilter.offset(0.0)
     assert np.all(np.abs(offset) < 0.05)
+
+
+def test_worker_applies_the_in_process_filter_chain_one_sample_later(talos):
+    """Fed the same plans, the worker's offset in sample k + 1 is the in-process filter's offset
+    plan after sample k, carried one sample ahead."""
+    hw = MujocoBackend(talos)
+    hw.configure()
+    state = hw.read()
+    hw.close()
+    controller = WalkingController(talos, state)
+    wpg, p = controller.wpg, controller.params
+    inline = DynamicFilter(talos, p.horizon, p.com_height, "full", passes=1)
+    worker = DynamicFilterWorker(talos, p.horizon, p.com_height, "full", passes=1)
+    try:
+        expected = None
+        for k in range(12):
+            wpg.set_velocity(0.25, 0.0, 0.0)
+            wpg.update()
+            args = (wpg, controller.ik.q, controller.com_z, controller.sole_height, controller.upper_body,
+                    wpg.sample_start)
+            worker.update(*args)
+            if expected is None:
+                np.testing.assert_array_equal(worker.offset(0.05)[0], np.zeros(2))  # nothing back yet
+            else:
+                np.testing.assert_allclose(worker.offset(0.05), expected, rtol=0, atol=1e-12)
+                assert worker.pass_rms == inline.pass_rms
+            inline.update(*args)
+            carried = DynamicFilter(talos, p.horizon, p.com_height, "full", passes=1).correction
+            carried.state, carried.jerks = inline.correction.state.copy(), inline.correction.jerks.copy()
+            carried.advance(wpg.sample_duration)
+            expected = carried.at(0.05)
+        assert np.abs(expected[0]).max() > 1e-4  # the filter did correct something
+    finally:
+        worker.close()
+
+
+def test_a_stopped_worker_is_reported(talos):
+    hw = MujocoBackend(talos)
+    hw.configure()
+    state = hw.read()
+    hw.close()
+    controller = WalkingController(talos, state)
+    wpg, p = controller.wpg, controller.params
+    worker = DynamicFilterWorker(talos, p.horizon, p.com_height, "full", passes=1)
+    args = (wpg, controller.ik.q, controller.com_z, controller.sole_height, controller.upper_body, 0.0)
+    wpg.update()
+    worker.update(*args)
+    worker._process.kill()
+    worker._process.join()
+    wpg.update()
+    with pytest.raises(RuntimeError, match="the dynamic filter worker stopped"):
+        worker.update(*args)
+    worker.close()
+    assert worker._process is None
 
 
 def test_filter_settings_are_checked(talos):

@@ -20,6 +20,7 @@ from robot_ctrl.control.static_feedforward import static_torques, weight_shares
 from robot_ctrl.control.estimator import StateEstimator
 from robot_ctrl.control.stabilizer import DcmStabilizer
 from robot_ctrl.dynfilter.dynamic_filter import DynamicFilter
+from robot_ctrl.dynfilter.filter_worker import DynamicFilterWorker
 from robot_ctrl.hw.types import JointCommand, JointState
 from robot_ctrl.robot.model import RobotModel, configuration
 from robot_ctrl.sot.whole_body_ik import SIDES, WholeBodyIK
@@ -36,9 +37,11 @@ class WalkingController:
     def __init__(self, robot: RobotModel, state: JointState, params: WalkParams | None = None,
                  control_dt: float = 0.005, stabilizer: DcmStabilizer | None = None,
                  upper_body: Callable[[float], np.ndarray] | None = None, dynfilter: str = "off",
-                 dynfilter_passes: int = 2):
+                 dynfilter_passes: int = 2, dynfilter_worker: bool = False):
         """``upper_body(t)``: posture-task target (joint order, rad) at time t, default the
-        half-sitting posture; ``dynfilter``: ``off``, ``legs`` or ``full`` (``DynamicFilter``)."""
+        half-sitting posture; ``dynfilter``: ``off``, ``legs`` or ``full`` (``DynamicFilter``), in
+        a worker process one WPG sample behind with ``dynfilter_worker`` (``DynamicFilterWorker``).
+        Call :meth:`close` when done (it ends the worker)."""
         self.robot = robot
         self.dt = control_dt
         q0 = configuration(robot, state.base_pos, state.base_quat_xyzw, state.q)
@@ -61,7 +64,8 @@ class WalkingController:
         self.stabilizer = stabilizer if stabilizer is not None else DcmStabilizer(self.params.com_height)
         default_posture = self.ik.posture.target.copy()
         self.upper_body = upper_body if upper_body is not None else (lambda t: default_posture)
-        self.dynfilter = DynamicFilter(robot, self.params.horizon, self.params.com_height, dynfilter, dynfilter_passes)
+        filter_type = DynamicFilterWorker if dynfilter_worker else DynamicFilter
+        self.dynfilter = filter_type(robot, self.params.horizon, self.params.com_height, dynfilter, dynfilter_passes)
         self.estimator = StateEstimator(robot)
         self.estimate = None
         self._statics = robot.pin.createData()
@@ -103,6 +107,11 @@ class WalkingController:
                                    np.array([*ref.com_acceleration, 0.0]))
         r = self.robot
         return JointCommand(q=r.joints_from_q(ik.q), dq=v[r.v_index], kp=r.kp, kd=r.kd, tau_ff=tau_ff[r.v_index])
+
+    def close(self) -> None:
+        """Release what the controller holds outside this process (the filter worker)."""
+        if isinstance(self.dynfilter, DynamicFilterWorker):
+            self.dynfilter.close()
 
     def contact_split(self, ref: WalkReference) -> tuple[list[int], list[float]]:
         """Sole frames in contact and their weight shares, from where the planned ZMP lies between them."""

@@ -20,6 +20,7 @@ real ZMP should follow).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
@@ -30,7 +31,7 @@ from robot_ctrl.dynfilter.preview_correction import PreviewCorrection
 from robot_ctrl.dynfilter.preview_ik import PreviewIK
 from robot_ctrl.robot.model import RobotModel
 from robot_ctrl.sot.whole_body_ik import SIDES
-from robot_ctrl.wpg.generator import WalkingPatternGenerator
+from robot_ctrl.wpg.generator import PreviewSample, WalkingPatternGenerator
 
 MODES = ("off", "legs", "full")
 DOUBLE_SUPPORT_WEIGHT = 0.1  # of the ZMP error in double-support samples (see PreviewCorrection)
@@ -38,10 +39,7 @@ DOUBLE_SUPPORT_WEIGHT = 0.1  # of the ZMP error in double-support samples (see P
 
 class DynamicFilter:
     def __init__(self, robot: RobotModel, horizon: int, com_height: float, mode: str = "full", passes: int = 2):
-        if mode not in MODES:
-            raise ValueError(f"dynfilter mode {mode!r} is not one of {', '.join(MODES)}")
-        if not (isinstance(passes, int) and 1 <= passes <= 10):
-            raise ValueError(f"dynfilter passes = {passes!r} must be an integer in [1, 10]")
+        self.check_settings(mode, passes)
         self.robot = robot
         self.mode = mode
         self.passes = passes
@@ -52,27 +50,34 @@ class DynamicFilter:
         self.last_error: np.ndarray | None = None  # (N − 1, 2) multibody − reference ZMP of the last pass
         self.pass_rms: list[float] = []  # weighted RMS of that error at each pass of the last update [m]
 
+    @staticmethod
+    def check_settings(mode: str, passes: int) -> None:
+        if mode not in MODES:
+            raise ValueError(f"dynfilter mode {mode!r} is not one of {', '.join(MODES)}")
+        if not (isinstance(passes, int) and 1 <= passes <= 10):
+            raise ValueError(f"dynfilter passes = {passes!r} must be an integer in [1, 10]")
+
     def update(self, wpg: WalkingPatternGenerator, q_ref: np.ndarray, com_z: float, sole_height: float,
                posture: Callable[[float], np.ndarray], t0: float) -> None:
         """Refine the CoM offset for the sample the WPG just solved (starting at time ``t0``).
         ``q_ref``: the IK's current reference configuration; ``posture(t)``: the upper-body
         (posture task) target at time t; ``com_z``, ``sole_height``: the controller's constants."""
-        if self.mode == "off":
-            return
-        T = wpg.sample_duration
+        if self.mode != "off":
+            self.refine(filter_request(self.mode, wpg, q_ref, com_z, sole_height, posture, t0))
+
+    def refine(self, request: FilterRequest) -> None:
+        """Carry the offset plan to the request's sample and run the passes on its plan."""
+        T, preview = request.sample_duration, request.preview
         if self._last_T is not None:
             self.correction.advance(self._last_T)
         self._last_T = T
-        preview = wpg.preview()
         reference = np.array([s.zmp for s in preview])
         weights = np.array([1.0 if s.single_support else DOUBLE_SUPPORT_WEIGHT for s in preview[1:]])
-        frozen = posture(t0)
-        targets = _sample_targets(preview, sole_height,
-                                  lambda t: posture(t0 + t) if self.mode == "full" else frozen)
+        targets = _sample_targets(preview, request.sole_height, request.postures)
         self.pass_rms = []
         for _ in range(self.passes):
             offsets = self.correction.offsets(T)
-            qs = self._whole_body(preview, offsets, targets, q_ref, com_z)
+            qs = self._whole_body(preview, offsets, targets, request.q_ref, request.com_z)
             zmp = trajectory_zmp(self.robot.pin, self._data, qs, T)
             error = zmp - reference[1:-1]  # samples 1..N−1
             self.last_error = error
@@ -100,13 +105,38 @@ class DynamicFilter:
         return qs
 
 
-def _sample_targets(preview, sole_height: float, posture) -> list[tuple[list[pin.SE3], np.ndarray, np.ndarray]]:
+@dataclass(frozen=True)
+class FilterRequest:
+    """One filter update's input as plain data (it can cross to a worker process): the WPG's
+    plan over the horizon (world frame), the sample duration [s], the IK reference configuration
+    the preview starts from, the CoM height and sole height [m] the controller holds, and the
+    posture target (joint order, rad) at each preview sample."""
+
+    preview: list[PreviewSample]
+    sample_duration: float
+    q_ref: np.ndarray
+    com_z: float
+    sole_height: float
+    postures: np.ndarray  # (N + 1, nj)
+
+
+def filter_request(mode: str, wpg: WalkingPatternGenerator, q_ref: np.ndarray, com_z: float, sole_height: float,
+                   posture: Callable[[float], np.ndarray], t0: float) -> FilterRequest:
+    """The request for the sample ``wpg`` just solved (starting at ``t0``); in ``legs`` mode the
+    posture is frozen at its value at ``t0``."""
+    preview = wpg.preview()
+    frozen = posture(t0)
+    postures = np.array([posture(t0 + s.t) if mode == "full" else frozen for s in preview])
+    return FilterRequest(preview, wpg.sample_duration, np.array(q_ref, dtype=float), com_z, sole_height, postures)
+
+
+def _sample_targets(preview, sole_height: float, postures) -> list[tuple[list[pin.SE3], np.ndarray, np.ndarray]]:
     """Per preview sample, the IK targets every pass shares: sole poses (left, right; world frame),
-    waist rotation (the feet's mean heading) and the posture (``posture(t)``, joint order)."""
+    waist rotation (the feet's mean heading) and the posture (joint order)."""
     targets = []
-    for sample in preview:
+    for sample, posture in zip(preview, postures):
         feet = [pin.SE3(pin.utils.rpyToMatrix(0.0, 0.0, sample.feet[s][1]),
                         sample.feet[s][0] + [0.0, 0.0, sole_height]) for s in SIDES]
         yaw = np.arctan2(sum(np.sin(sample.feet[s][1]) for s in SIDES), sum(np.cos(sample.feet[s][1]) for s in SIDES))
-        targets.append((feet, pin.utils.rpyToMatrix(0.0, 0.0, yaw), posture(sample.t)))
+        targets.append((feet, pin.utils.rpyToMatrix(0.0, 0.0, yaw), posture))
     return targets

@@ -44,9 +44,10 @@ def relative(pose: np.ndarray, origin: np.ndarray) -> np.ndarray:
 def run_walk(robot: RobotModel, hw: HardwareAdapter, goal: WalkGoal, params: WalkParams | None = None,
              stabilize: bool = True, out_dir: Path | None = None, log: Callable[[str], None] = print,
              control_dt: float = 0.005, grf_limit_ratio: float = GRF_LIMIT_RATIO, arms: str = "none",
-             dynfilter: str = "off", dynfilter_passes: int = 2) -> dict:
+             dynfilter: str = "off", dynfilter_passes: int = 2, dynfilter_worker: bool = True) -> dict:
     """Walk ``goal`` and report. ``arms``: ``none`` (half-sitting arms) or ``swing`` (``ArmSwing``:
-    elbows ±0.5 rad at 1 Hz); ``dynfilter``: ``off``, ``legs`` or ``full`` (``DynamicFilter``)."""
+    elbows ±0.5 rad at 1 Hz); ``dynfilter``: ``off``, ``legs`` or ``full`` (``DynamicFilter``), in a
+    worker process one WPG sample behind unless ``dynfilter_worker`` is False (``DynamicFilterWorker``)."""
     if arms not in ("none", "swing"):
         raise ValueError(f"arms {arms!r} is not one of none, swing")
     hw.configure()
@@ -61,7 +62,7 @@ def run_walk(robot: RobotModel, hw: HardwareAdapter, goal: WalkGoal, params: Wal
                                          np.clip(robot.config.half_sitting, limits.q_min, limits.q_max),
                                          limits.q_min, limits.q_max)
     controller = WalkingController(robot, state, params, control_dt, upper_body=upper_body, dynfilter=dynfilter,
-                                   dynfilter_passes=dynfilter_passes)
+                                   dynfilter_passes=dynfilter_passes, dynfilter_worker=dynfilter_worker)
     controller.stabilizer.enabled = stabilize
     wpg = controller.wpg
     start = base_pose(state)
@@ -131,6 +132,7 @@ def run_walk(robot: RobotModel, hw: HardwareAdapter, goal: WalkGoal, params: Wal
             k += 1
     finally:
         wall = time.perf_counter() - wall0
+        controller.close()
         hw.close()
     final = relative(base_pose(state), start)
     target = goal.pose_at(goal.length)
@@ -156,6 +158,7 @@ def run_walk(robot: RobotModel, hw: HardwareAdapter, goal: WalkGoal, params: Wal
         arms=arms,
         dynfilter=dynfilter,
         dynfilter_passes=dynfilter_passes if dynfilter != "off" else 0,
+        dynfilter_worker=dynfilter_worker and dynfilter != "off",
         rtf=round(metrics.t / wall, 3),
         control_rate_hz=round(1.0 / control_dt, 3),
     )

@@ -1,0 +1,115 @@
+"""DynamicFilterWorker: the dynamic filter in a worker process, one pattern-generator sample behind.
+
+The filter's passes (whole-body preview, multibody ZMP, preview correction: ``DynamicFilter``)
+cost about as much as the rest of the control loop; here they run on another CPU core while the
+controller executes the sample. At the start of sample k the controller sends sample k's plan and
+takes the worker's result for sample k − 1, carried one sample ahead (``PreviewCorrection.advance``).
+
+Simplification (README, "Dynamic filter"): the offset applied during sample k was refined on the
+plan of sample k − 1, 0.1 s older than the plan it corrects. The worker's chain of offset plans is
+the in-process filter's chain fed the same requests; only its use is one sample later. The
+controller waits for the result when the worker is late, so a run does not depend on timing.
+"""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+from dataclasses import dataclass
+from typing import Callable, NoReturn
+
+import numpy as np
+
+from robot_ctrl.dynfilter.dynamic_filter import DynamicFilter, FilterRequest, filter_request
+from robot_ctrl.dynfilter.preview_correction import PreviewCorrection
+from robot_ctrl.robot.model import RobotModel
+from robot_ctrl.wpg.generator import WalkingPatternGenerator
+
+
+@dataclass(frozen=True)
+class FilterResult:
+    """The offset plan after a request's passes (``PreviewCorrection`` state and jerks, aligned with
+    the start of the request's sample) and the passes' diagnostics."""
+
+    state: np.ndarray  # (3, 2)
+    jerks: np.ndarray  # (N, 2)
+    last_error: np.ndarray
+    pass_rms: list[float]
+
+
+def _serve(connection, robot: RobotModel, horizon: int, com_height: float, mode: str, passes: int) -> None:
+    """Worker process: refine every request in order and send the result back, until ``None``."""
+    dynfilter = DynamicFilter(robot, horizon, com_height, mode, passes)
+    while (request := connection.recv()) is not None:
+        dynfilter.refine(request)
+        c = dynfilter.correction
+        connection.send(FilterResult(c.state.copy(), c.jerks.copy(), dynfilter.last_error, dynfilter.pass_rms))
+    connection.close()
+
+
+class DynamicFilterWorker:
+    """Same interface as :class:`DynamicFilter` (``update``, ``offset``, ``last_error``,
+    ``pass_rms``); ``close()`` ends the worker. Mode ``off`` starts no process."""
+
+    def __init__(self, robot: RobotModel, horizon: int, com_height: float, mode: str = "full", passes: int = 2):
+        DynamicFilter.check_settings(mode, passes)
+        self.mode, self.passes = mode, passes
+        self.correction = PreviewCorrection(horizon, com_height)
+        self.last_error: np.ndarray | None = None
+        self.pass_rms: list[float] = []
+        self._pending: float | None = None  # sample duration of the request in flight
+        self._connection = self._process = None
+        if mode != "off":
+            # fork shares the loaded robot model; other platforms pickle it to a fresh interpreter.
+            context = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
+            self._connection, child = context.Pipe()
+            self._process = context.Process(target=_serve, args=(child, robot, horizon, com_height, mode, passes),
+                                            daemon=True, name="dynamic-filter")
+            self._process.start()
+            child.close()
+
+    def update(self, wpg: WalkingPatternGenerator, q_ref: np.ndarray, com_z: float, sole_height: float,
+               posture: Callable[[float], np.ndarray], t0: float) -> None:
+        """Start refining the sample the WPG just solved; apply the previous sample's result."""
+        if self.mode == "off":
+            return
+        if self._pending is not None:
+            result = self._receive()
+            self.correction.state, self.correction.jerks = result.state, result.jerks
+            self.correction.advance(self._pending)
+            self.last_error, self.pass_rms = result.last_error, result.pass_rms
+        request: FilterRequest = filter_request(self.mode, wpg, q_ref, com_z, sole_height, posture, t0)
+        try:
+            self._connection.send(request)
+        except OSError:
+            self._stopped()
+        self._pending = request.sample_duration
+
+    def offset(self, tau: float) -> tuple[np.ndarray, np.ndarray]:
+        """CoM offset and its velocity (2,) ``tau`` seconds into the current sample."""
+        if self.mode == "off":
+            return np.zeros(2), np.zeros(2)
+        return self.correction.at(tau)
+
+    def _receive(self) -> FilterResult:
+        try:
+            return self._connection.recv()
+        except (EOFError, OSError):
+            self._stopped()
+
+    def _stopped(self) -> NoReturn:
+        self._process.join(timeout=1.0)
+        raise RuntimeError(f"the dynamic filter worker stopped (exit code {self._process.exitcode}); "
+                           "its error, if it raised one, is printed above") from None
+
+    def close(self) -> None:
+        if self._process is None:
+            return
+        try:
+            self._connection.send(None)
+        except (BrokenPipeError, OSError):
+            pass  # already gone
+        self._process.join(timeout=5.0)
+        if self._process.is_alive():
+            self._process.terminate()
+        self._connection.close()
+        self._process = self._connection = None
