@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from robot_ctrl.wpg.lipm import com_at, horizon_matrices
+from robot_ctrl.wpg.lipm import com_at, horizon_matrices, transition
 
 
 class PreviewCorrection:
@@ -69,8 +69,6 @@ class PreviewCorrection:
 
     def at(self, tau: float) -> tuple[np.ndarray, np.ndarray]:
         """Offset position and velocity (2,) each, ``tau`` seconds into the current sample."""
-        pos, vel = np.empty(2), np.empty(2)
-        for axis in range(2):
-            s = com_at(self.state[:, axis], self.jerks[0, axis], tau)
-            pos[axis], vel[axis] = s[0], s[1]
-        return pos, vel
+        A, B = transition(tau)
+        s = A[:2] @ self.state + np.outer(B[:2], self.jerks[0])  # both axes at once (columns)
+        return s[0], s[1]
