@@ -64,14 +64,19 @@ def test_filter_passes_reduce_the_zmp_error_of_a_recorded_plan(talos):
     assert np.all(np.abs(offset) < 0.05)
 
 
-def test_worker_applies_the_in_process_filter_chain_one_sample_later(talos):
-    """Fed the same plans, the worker's offset in sample k + 1 is the in-process filter's offset
-    plan after sample k, carried one sample ahead."""
+def standing_controller(talos) -> WalkingController:
+    """A walking controller built from Talos standing in MuJoCo (its WPG is stepped without physics)."""
     hw = MujocoBackend(talos)
     hw.configure()
     state = hw.read()
     hw.close()
-    controller = WalkingController(talos, state)
+    return WalkingController(talos, state)
+
+
+def test_worker_applies_the_in_process_filter_chain_one_sample_later(talos):
+    """Fed the same plans, the worker's offset in sample k + 1 is the in-process filter's offset
+    plan after sample k, carried one sample ahead."""
+    controller = standing_controller(talos)
     wpg, p = controller.wpg, controller.params
     inline = DynamicFilter(talos, p.horizon, p.com_height, "full", passes=1)
     worker = DynamicFilterWorker(talos, p.horizon, p.com_height, "full", passes=1)
@@ -99,11 +104,7 @@ def test_worker_applies_the_in_process_filter_chain_one_sample_later(talos):
 
 
 def test_a_stopped_worker_is_reported(talos):
-    hw = MujocoBackend(talos)
-    hw.configure()
-    state = hw.read()
-    hw.close()
-    controller = WalkingController(talos, state)
+    controller = standing_controller(talos)
     wpg, p = controller.wpg, controller.params
     worker = DynamicFilterWorker(talos, p.horizon, p.com_height, "full", passes=1)
     args = (wpg, controller.ik.q, controller.com_z, controller.sole_height, controller.upper_body, 0.0)

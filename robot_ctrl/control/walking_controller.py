@@ -110,8 +110,7 @@ class WalkingController:
 
     def close(self) -> None:
         """Release what the controller holds outside this process (the filter worker)."""
-        if isinstance(self.dynfilter, DynamicFilterWorker):
-            self.dynfilter.close()
+        self.dynfilter.close()
 
     def contact_split(self, ref: WalkReference) -> tuple[list[int], list[float]]:
         """Sole frames in contact and their weight shares, from where the planned ZMP lies between them."""

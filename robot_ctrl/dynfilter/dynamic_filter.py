@@ -91,6 +91,9 @@ class DynamicFilter:
             return np.zeros(2), np.zeros(2)
         return self.correction.at(tau)
 
+    def close(self) -> None:
+        """Nothing to release (``DynamicFilterWorker.close`` ends its process)."""
+
     def _whole_body(self, preview, offsets, targets, q_ref, com_z) -> list[np.ndarray]:
         ik = self._ik
         ik.set_configuration(q_ref)

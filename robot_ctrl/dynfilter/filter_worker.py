@@ -19,7 +19,7 @@ from typing import Callable, NoReturn
 
 import numpy as np
 
-from robot_ctrl.dynfilter.dynamic_filter import DynamicFilter, FilterRequest, filter_request
+from robot_ctrl.dynfilter.dynamic_filter import DynamicFilter, filter_request
 from robot_ctrl.dynfilter.preview_correction import PreviewCorrection
 from robot_ctrl.robot.model import RobotModel
 from robot_ctrl.wpg.generator import WalkingPatternGenerator
@@ -77,7 +77,7 @@ class DynamicFilterWorker:
             self.correction.state, self.correction.jerks = result.state, result.jerks
             self.correction.advance(self._pending)
             self.last_error, self.pass_rms = result.last_error, result.pass_rms
-        request: FilterRequest = filter_request(self.mode, wpg, q_ref, com_z, sole_height, posture, t0)
+        request = filter_request(self.mode, wpg, q_ref, com_z, sole_height, posture, t0)
         try:
             self._connection.send(request)
         except OSError:
