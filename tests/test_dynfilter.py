@@ -8,6 +8,7 @@ import pytest
 from robot_ctrl.control.walking_controller import WalkingController
 from robot_ctrl.dynfilter.dynamic_filter import DynamicFilter
 from robot_ctrl.dynfilter.filter_worker import DynamicFilterWorker
+from robot_ctrl.dynfilter.preview_correction import PreviewCorrection
 from robot_ctrl.dynfilter.multibody_zmp import multibody_zmp
 from robot_ctrl.hw.mujoco_backend import MujocoBackend
 
@@ -94,7 +95,7 @@ def test_worker_applies_the_in_process_filter_chain_one_sample_later(talos):
                 np.testing.assert_allclose(worker.offset(0.05), expected, rtol=0, atol=1e-12)
                 assert worker.pass_rms == inline.pass_rms
             inline.update(*args)
-            carried = DynamicFilter(talos, p.horizon, p.com_height, "full", passes=1).correction
+            carried = PreviewCorrection(p.horizon, p.com_height)
             carried.state, carried.jerks = inline.correction.state.copy(), inline.correction.jerks.copy()
             carried.advance(wpg.sample_duration)
             expected = carried.at(0.05)

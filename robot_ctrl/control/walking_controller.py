@@ -64,7 +64,7 @@ class WalkingController:
         self.stabilizer = stabilizer if stabilizer is not None else DcmStabilizer(self.params.com_height)
         default_posture = self.ik.posture.target.copy()
         self.upper_body = upper_body if upper_body is not None else (lambda t: default_posture)
-        filter_type = DynamicFilterWorker if dynfilter_worker else DynamicFilter
+        filter_type = DynamicFilterWorker if dynfilter_worker and dynfilter != "off" else DynamicFilter
         self.dynfilter = filter_type(robot, self.params.horizon, self.params.com_height, dynfilter, dynfilter_passes)
         self.estimator = StateEstimator(robot)
         self.estimate = None

@@ -128,8 +128,10 @@ def filter_request(mode: str, wpg: WalkingPatternGenerator, q_ref: np.ndarray, c
     """The request for the sample ``wpg`` just solved (starting at ``t0``); in ``legs`` mode the
     posture is frozen at its value at ``t0``."""
     preview = wpg.preview()
-    frozen = posture(t0)
-    postures = np.array([posture(t0 + s.t) if mode == "full" else frozen for s in preview])
+    if mode == "full":
+        postures = np.array([posture(t0 + s.t) for s in preview])
+    else:
+        postures = np.tile(posture(t0), (len(preview), 1))
     return FilterRequest(preview, wpg.sample_duration, np.array(q_ref, dtype=float), com_z, sole_height, postures)
 
 

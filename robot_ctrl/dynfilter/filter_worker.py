@@ -48,30 +48,28 @@ def _serve(connection, robot: RobotModel, horizon: int, com_height: float, mode:
 
 class DynamicFilterWorker:
     """Same interface as :class:`DynamicFilter` (``update``, ``offset``, ``last_error``,
-    ``pass_rms``); ``close()`` ends the worker. Mode ``off`` starts no process."""
+    ``pass_rms``, ``close``) for the modes ``legs`` and ``full``; ``close()`` ends the worker."""
 
     def __init__(self, robot: RobotModel, horizon: int, com_height: float, mode: str = "full", passes: int = 2):
         DynamicFilter.check_settings(mode, passes)
+        if mode == "off":
+            raise ValueError("dynfilter mode 'off' needs no worker: use DynamicFilter")
         self.mode, self.passes = mode, passes
         self.correction = PreviewCorrection(horizon, com_height)
         self.last_error: np.ndarray | None = None
         self.pass_rms: list[float] = []
         self._pending: float | None = None  # sample duration of the request in flight
-        self._connection = self._process = None
-        if mode != "off":
-            # fork shares the loaded robot model; other platforms pickle it to a fresh interpreter.
-            context = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
-            self._connection, child = context.Pipe()
-            self._process = context.Process(target=_serve, args=(child, robot, horizon, com_height, mode, passes),
-                                            daemon=True, name="dynamic-filter")
-            self._process.start()
-            child.close()
+        # fork shares the loaded robot model; other platforms pickle it to a fresh interpreter.
+        context = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
+        self._connection, child = context.Pipe()
+        self._process = context.Process(target=_serve, args=(child, robot, horizon, com_height, mode, passes),
+                                        daemon=True, name="dynamic-filter")
+        self._process.start()
+        child.close()
 
     def update(self, wpg: WalkingPatternGenerator, q_ref: np.ndarray, com_z: float, sole_height: float,
                posture: Callable[[float], np.ndarray], t0: float) -> None:
         """Start refining the sample the WPG just solved; apply the previous sample's result."""
-        if self.mode == "off":
-            return
         if self._pending is not None:
             result = self._receive()
             self.correction.state, self.correction.jerks = result.state, result.jerks
@@ -86,8 +84,6 @@ class DynamicFilterWorker:
 
     def offset(self, tau: float) -> tuple[np.ndarray, np.ndarray]:
         """CoM offset and its velocity (2,) ``tau`` seconds into the current sample."""
-        if self.mode == "off":
-            return np.zeros(2), np.zeros(2)
         return self.correction.at(tau)
 
     def _receive(self) -> FilterResult:
@@ -106,7 +102,7 @@ class DynamicFilterWorker:
             return
         try:
             self._connection.send(None)
-        except (BrokenPipeError, OSError):
+        except OSError:
             pass  # already gone
         self._process.join(timeout=5.0)
         if self._process.is_alive():
