@@ -1,5 +1,6 @@
 """Hardware-adapter lifecycle and the MuJoCo backend (real physics)."""
 
+import mujoco
 import numpy as np
 import pytest
 
@@ -92,6 +93,39 @@ def test_servo_saturation_is_reported_as_demand(talos):
     i = talos.joint_names.index("arm_right_4_joint")
     assert abs(state.tau_demand[i]) > 10 * talos.effort[i]
     assert abs(state.tau[i]) <= talos.effort[i] + 1e-9
+
+
+def test_background_period_is_mj_step_in_a_loop(talos):
+    """write() simulates the period on the physics thread: the same states, bit for bit, as mj_step
+    called in a loop, and the demand record is the servo law at each step's state."""
+    hw = MujocoBackend(talos)
+    hw.configure()
+    hw.activate()
+    m, d = hw.m, hw.d
+    reference = mujoco.MjData(m)
+    mujoco.mj_copyData(reference, m, d)
+    q = hw.read().q.copy()
+    knee0 = q[(i := talos.joint_names.index("leg_left_4_joint"))]
+    assert m.nu == talos.nj  # the robot's servos are the scene's only actuators
+    acts = slice(0, talos.nj)
+    for k in range(20):
+        q[i] += 0.01  # a knee bending: the state moves every period
+        command = hold(talos, q)
+        hw.write(command)
+        state = hw.read()
+        reference.ctrl[:] = d.ctrl  # the same servo command, in the shared model's gains
+        demand = []
+        for _ in range(hw.world.n_substeps):
+            mujoco.mj_step(m, reference)
+            demand.append(command.kp * (command.q - reference.actuator_length[acts])
+                          - command.kd * reference.actuator_velocity[acts])
+        np.testing.assert_array_equal(d.qpos, reference.qpos)
+        np.testing.assert_array_equal(d.qvel, reference.qvel)
+        np.testing.assert_array_equal(d.qacc_warmstart, reference.qacc_warmstart)
+        demand = np.array(demand)
+        np.testing.assert_allclose(state.tau_demand, demand[np.abs(demand).argmax(axis=0), np.arange(talos.nj)],
+                                   rtol=1e-12, atol=1e-9)
+    assert state.q[i] - knee0 > 0.1  # the knee followed the 0.2 rad it was sent
 
 
 def test_control_period_must_be_a_multiple_of_the_physics_step(talos):

@@ -1,7 +1,9 @@
 """MuJoCo simulation backend of the hardware interface, stepping the physics in lock-step.
 
-Alone in its world, each ``write()`` applies the servo command and advances the simulation by one
-control period (``control_dt / timestep`` physics steps). In a world shared with other robots
+Alone in its world, each ``write()`` applies the servo command and starts the simulation of one
+control period (``control_dt / timestep`` physics steps) on the world's physics thread, and
+returns: as on a real robot, the caller may compute while the robot moves, and ``read()`` waits for
+the period's end. In a world shared with other robots
 (:class:`~robot_ctrl.hw.mujoco_world.MujocoWorld`), ``write()`` only applies the command and the
 world steps once all robots have written. ``read()`` returns the state at the current time.
 The robot starts in its half-sitting posture with the lowest point of its feet on the floor.
@@ -63,14 +65,21 @@ class MujocoBackend(HardwareAdapter):
             raise ValueError("the robot's actuators must be contiguous and in joint order in the MuJoCo model")
         self._acts = slice(int(self._act[0]), int(self._act[0]) + self.nj)  # views, not copies
         self._servo = None  # (kp, kd, kp q_des + kd dq_des + tau_ff) of the last command
-        # Actuator length and velocity at each physics step of the last control period (copied,
-        # not computed, per step: the demand is evaluated once, at the read).
-        self._servo_q = np.zeros((self.world.n_substeps, self.nj))
-        self._servo_dq = np.zeros((self.world.n_substeps, self.nj))
-        self.world.on_substep(self._record_servo)
+        # Columns of the servos' joint position and velocity in the world's physics states; a
+        # joint servo's length and velocity are gear × the joint's.
+        joints = self.m.actuator_trnid[self._acts, 0]
+        if not (np.all(self.m.actuator_trntype[self._acts] == mujoco.mjtTrn.mjTRN_JOINT)
+                and np.all(self.m.jnt_type[joints] == mujoco.mjtJoint.mjJNT_HINGE)):
+            raise ValueError("the robot's actuators must drive hinge joints directly")
+        qpos_at = mujoco.mj_stateSize(self.m, mujoco.mjtState.mjSTATE_TIME)
+        qvel_at = mujoco.mj_stateSize(self.m, mujoco.mjtState.mjSTATE_TIME | mujoco.mjtState.mjSTATE_QPOS)
+        self._servo_qpos_col = qpos_at + self.m.jnt_qposadr[joints]
+        self._servo_qvel_col = qvel_at + self.m.jnt_dofadr[joints]
+        self._gear = self.m.actuator_gear[self._acts, 0].copy()
 
     # Lifecycle hooks --------------------------------------------------------------------------
     def _on_configure(self) -> None:
+        self.world.finish_step()
         if self._owns_world:
             mujoco.mj_resetData(self.m, self.d)
         x, y, yaw = self._start
@@ -82,8 +91,6 @@ class MujocoBackend(HardwareAdapter):
         self.d.qpos[self.map.base_qpos + 2] -= self._lowest_foot_point()
         mujoco.mj_forward(self.m, self.d)
         mujoco.mj_rnePostConstraint(self.m, self.d)  # contact wrenches for the first read
-        self._servo_q[:] = self.d.actuator_length[self._acts]
-        self._servo_dq[:] = self.d.actuator_velocity[self._acts]
         self._apply_gains(self.robot.kp, self.robot.kd, np.zeros(self.nj), np.zeros(self.nj))
         self.d.ctrl[self._act] = self.d.qpos[self.map.qpos]
 
@@ -92,6 +99,7 @@ class MujocoBackend(HardwareAdapter):
             self.world.open_viewer()
 
     def _on_estop(self) -> None:
+        self.world.finish_step()
         # Damping mode: no stiffness, no feedforward, joint damping kept.
         self._apply_gains(np.zeros(self.nj), self.robot.kd, np.zeros(self.nj), np.zeros(self.nj))
         self._servo = None
@@ -109,27 +117,28 @@ class MujocoBackend(HardwareAdapter):
         self.m.actuator_biasprm[a, 0] = kd * dq + tau_ff
 
     def _write(self, cmd: JointCommand) -> None:
+        self.world.finish_step()  # a write after a write: the previous period ends first
         self._apply_gains(cmd.kp, cmd.kd, cmd.dq, cmd.tau_ff)
         self.d.ctrl[self._acts] = cmd.q
         self._servo = (cmd.kp, cmd.kd, cmd.kp * cmd.q + self.m.actuator_biasprm[self._acts, 0])
         if self._owns_world:
-            self.world.step()
-
-    def _record_servo(self, i: int) -> None:
-        self._servo_q[i] = self.d.actuator_length[self._acts]
-        self._servo_dq[i] = self.d.actuator_velocity[self._acts]
+            self.world.start_step()
 
     def _peak_demand(self) -> np.ndarray | None:
         """Per joint, the unsaturated servo torque of largest magnitude over the physics steps of
         the last control period: kp q_des + (kd dq_des + tau_ff) − kp q − kd dq, with the q and dq
-        MuJoCo computed the servo force from at each step."""
+        MuJoCo computed the servo force from at each step (the state at the step's start)."""
         if self._servo is None:
             return None
         kp, kd, constant = self._servo
-        demand = constant - kp * self._servo_q - kd * self._servo_dq
+        states = self.world.step_states
+        q = self._gear * states[:, self._servo_qpos_col]
+        dq = self._gear * states[:, self._servo_qvel_col]
+        demand = constant - kp * q - kd * dq
         return demand[np.abs(demand).argmax(axis=0), np.arange(self.nj)]
 
     def _read(self) -> JointState:
+        self.world.finish_step()
         m, d, mp = self.m, self.d, self.map
         b, v = mp.base_qpos, mp.base_dof
         wxyz = d.qpos[b + 3 : b + 7]

@@ -5,18 +5,34 @@ Each robot in it is driven through its own :class:`~robot_ctrl.hw.mujoco_backend
 (lifecycle, read/write); the backends only touch their robot's slice of the data. A world with a
 single robot is stepped by that robot's ``write()``; a world shared by several robots is stepped
 by :meth:`step` once every controller has written its command for the tick (lock-step).
+
+A control period is one ``mujoco.rollout`` call over its physics steps: the same steps as
+``mj_step`` in a loop (same warm start, bit for bit), with the state after each step kept for
+the backends (their servos' demand) and without the Python interpreter lock held. That lets
+:meth:`start_step` run the period on a background thread, as a real robot moves while its
+controller computes: the caller can do other work until :meth:`finish_step`.
 """
 
 from __future__ import annotations
 
+import sys
+import threading
 import time
 from pathlib import Path
-from typing import Callable
 
 import mujoco
+import mujoco.rollout
+import numpy as np
+
+#: Interpreter switch interval while a background period runs [s]. The default (5 ms) lets the
+#: controller's Python hold the lock for a whole period before the physics thread may start.
+SWITCH_INTERVAL = 5e-6
 
 
 class MujocoWorld:
+    #: What a physics state holds (``mj_getState``): time, qpos, qvel, act, mocap, user data.
+    STATE = mujoco.mjtState.mjSTATE_FULLPHYSICS
+
     def __init__(self, mjcf: Path, control_dt: float = 0.005, viewer: bool = False):
         self.m = mujoco.MjModel.from_xml_path(str(mjcf))
         self.d = mujoco.MjData(self.m)
@@ -29,12 +45,20 @@ class MujocoWorld:
         self._want_viewer = viewer
         self._viewer = None
         self._wall0 = 0.0
-        self._after_substep: list[Callable[[int], None]] = []
-
-    def on_substep(self, callback: Callable[[int], None]) -> None:
-        """Call ``callback(i)`` after physics step i of each control period (a backend recording
-        its servo demand)."""
-        self._after_substep.append(callback)
+        m, n = self.m, self.n_substeps
+        nstate = mujoco.mj_stateSize(m, self.STATE)
+        #: Physics state at the start of each step of the last period (n_substeps × nstate): the
+        #: state the step's forward dynamics (and so each servo's force) was computed from.
+        self.step_states = np.zeros((n, nstate))
+        self._after = np.zeros((1, n, nstate))  # rollout's output: the state after each step
+        self._start = np.zeros((1, nstate))
+        self._warmstart = np.zeros((1, m.nv))
+        self._ctrl = np.zeros((1, n, m.nu))
+        self._sensordata = np.zeros((1, n, m.nsensordata))
+        self._rollout = mujoco.rollout.Rollout(nthread=0)  # runs on the calling thread
+        self._thread: _PeriodThread | None = None
+        self._running = False
+        self._on_thread = False
 
     def open_viewer(self) -> None:
         if self._want_viewer and self._viewer is None:
@@ -44,12 +68,33 @@ class MujocoWorld:
         self._wall0 = time.perf_counter() - self.d.time
 
     def step(self) -> None:
-        """Advance the physics by one control period, then compute the bodies' contact wrenches
-        (``cfrc_ext``, which ``mj_step`` leaves out) for the backends' force/torque readings."""
-        for i in range(self.n_substeps):
-            mujoco.mj_step(self.m, self.d)
-            for callback in self._after_substep:
-                callback(i)
+        """Advance the physics by one control period (see :meth:`finish_step` for what it leaves)."""
+        self._begin()
+        self._run_period()
+        self._running, self._on_thread = True, False
+        self.finish_step()
+
+    def start_step(self) -> None:
+        """Start the next control period on the physics thread and return at once. Nothing may
+        touch ``m`` or ``d`` until :meth:`finish_step`."""
+        self._begin()
+        if self._thread is None:
+            self._thread = _PeriodThread(self._run_period)
+        self._running, self._on_thread = True, True
+        self._thread.start()
+
+    def finish_step(self) -> None:
+        """Wait for the period started last (if any), then compute the bodies' contact wrenches
+        (``cfrc_ext``, which ``mj_step`` leaves out) for the backends' force/torque readings.
+        ``d`` then holds what a loop of ``mj_step`` leaves: the state at the end of the period,
+        its forward quantities from the start of the last step."""
+        if not self._running:
+            return
+        self._running = False
+        if self._on_thread:
+            self._thread.wait()
+        self.step_states[0] = self._start[0]
+        self.step_states[1:] = self._after[0, :-1]
         mujoco.mj_rnePostConstraint(self.m, self.d)
         if self._viewer is not None:
             self._viewer.sync()
@@ -57,7 +102,68 @@ class MujocoWorld:
             if lag > 0:  # pace the viewer at real time
                 time.sleep(lag)
 
+    def _begin(self) -> None:
+        if self._running:
+            raise RuntimeError("MujocoWorld: a control period is still running (call finish_step first)")
+        mujoco.mj_getState(self.m, self.d, self._start[0], self.STATE)
+        self._warmstart[0] = self.d.qacc_warmstart
+        self._ctrl[0] = self.d.ctrl
+
+    def _run_period(self) -> None:
+        self._rollout.rollout_.rollout([self.m], [self.d], self.n_substeps, mujoco.mjtState.mjSTATE_CTRL,
+                                       self._start, self._warmstart, self._ctrl, self._after, self._sensordata,
+                                       None)
+
     def close(self) -> None:
+        self.finish_step()
+        if self._thread is not None:
+            self._thread.close()
+            self._thread = None
         if self._viewer is not None:
             self._viewer.close()
             self._viewer = None
+
+
+class _PeriodThread:
+    """A daemon thread that runs ``work`` once per :meth:`start`; :meth:`wait` blocks until it is
+    done and re-raises what it raised. Raw locks, not Events: each wake-up of the thread costs one
+    handover of the interpreter lock, not several."""
+
+    def __init__(self, work):
+        self._work = work
+        self._go = threading.Lock()
+        self._go.acquire()
+        self._done = threading.Lock()
+        self._done.acquire()
+        self._error: BaseException | None = None
+        self._stop = False
+        self._switch_interval = sys.getswitchinterval()
+        sys.setswitchinterval(min(self._switch_interval, SWITCH_INTERVAL))
+        self._thread = threading.Thread(target=self._loop, name="mujoco-physics", daemon=True)
+        self._thread.start()
+
+    def _loop(self) -> None:
+        while True:
+            self._go.acquire()
+            if self._stop:
+                return
+            try:
+                self._work()
+            except BaseException as exc:  # handed to the waiting caller
+                self._error = exc
+            self._done.release()
+
+    def start(self) -> None:
+        self._go.release()
+
+    def wait(self) -> None:
+        self._done.acquire()
+        if self._error is not None:
+            error, self._error = self._error, None
+            raise error
+
+    def close(self) -> None:
+        self._stop = True
+        self._go.release()
+        self._thread.join()
+        sys.setswitchinterval(self._switch_interval)
