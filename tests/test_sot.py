@@ -144,3 +144,28 @@ def test_fast_path_gives_the_level_by_level_solution(talos, tasks, monkeypatch):
     by_level = solver.solve(talos.pin, data, q, DT)
     assert np.linalg.norm(fast) > 0.1  # the CoM and posture tasks really move the robot
     np.testing.assert_allclose(fast, by_level, atol=1e-8)
+
+
+def test_prepared_solve_with_a_moved_target_equals_a_fresh_solve(talos, tasks):
+    """prepare, move the CoM target, finish naming it: the solve that had the final target from the start."""
+    feet, com, _, posture = tasks
+    data = talos.pin.createData()
+    q = perturbed_half_sitting(talos, np.random.default_rng(3))
+    pin.framesForwardKinematics(talos.pin, data, q)
+    for f in feet:
+        f.set_target(data.oMf[f.frame_id].copy())
+    com0 = pin.centerOfMass(talos.pin, data, q)
+    posture.set_target(q[talos.q_index])
+    solver = HierarchicalQP([feet, [com], [posture]], JointLimits.from_robot(talos))
+    com.set_target(com0)
+    solver.prepare(talos.pin, data, q, DT)
+    com.set_target(com0 + [0.003, -0.002, 0.0])
+    prepared = solver.finish(retargeted=(com,))
+    fresh = solver.solve(talos.pin, talos.pin.createData(), q, DT)
+    np.testing.assert_array_equal(prepared, fresh)
+    assert np.linalg.norm(prepared) > 0.1  # the moved target moves the robot
+    with pytest.raises(RuntimeError, match="finish without prepare"):
+        solver.finish()
+    solver.prepare(talos.pin, data, q, DT)
+    with pytest.raises(ValueError, match="'right_hand' is not an active task of the prepared stack"):
+        solver.finish(retargeted=(tasks[2],))

@@ -28,6 +28,11 @@ the last level on ``{v : E v = f}`` (E, f the stacked higher levels), one KKT sy
 It is accepted when it meets the higher levels (relative residual ≤ ``EXACT_TOL``) and the bounds;
 otherwise (a higher level out of reach, singular, or held back by a bound) the levels are solved
 one by one as above. Both give the same solution where both apply.
+
+A solve is :meth:`~HierarchicalQP.prepare` (bounds, kinematics, every task's rows, the KKT matrix
+factorized: all that depends on ``q``) then :meth:`~HierarchicalQP.finish`, which may first
+re-read the rows of tasks whose targets were set in between. A controller prepares while the
+robot moves and finishes once the measured state has given it its last targets.
 """
 
 from __future__ import annotations
@@ -45,7 +50,8 @@ from robot_ctrl.sot.task import Task
 BOUND_SLACK = 1e-10  # [rad/s] relaxation of the bounds inside each QP (see solve)
 EXACT_TOL = 1e-9  # relative residual of the higher levels that the fast path must reach
 
-_geqp3, _orgqr, _posv, _trtrs, _gesv = lapack.dgeqp3, lapack.dorgqr, lapack.dposv, lapack.dtrtrs, lapack.dgesv
+_geqp3, _orgqr, _posv, _trtrs = lapack.dgeqp3, lapack.dorgqr, lapack.dposv, lapack.dtrtrs
+_getrf, _getrs = lapack.dgetrf, lapack.dgetrs
 
 
 class InfeasibleError(RuntimeError):
@@ -71,6 +77,21 @@ class LevelResult:
         return float(np.linalg.norm(self.A @ v - self.b))
 
 
+@dataclass
+class _Prepared:
+    """A solve up to the point where the tasks' targets enter (see :meth:`HierarchicalQP.prepare`)."""
+
+    model: pin.Model
+    data: pin.Data
+    q: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+    levels: list[list[Task]]
+    stacked: list[tuple[np.ndarray, np.ndarray]]
+    spans: dict[Task, tuple[int, slice]]  # each task's level and rows in it
+    kkt: tuple[np.ndarray, np.ndarray, np.ndarray] | None  # (E, LU of K, pivots) when it factorized
+
+
 class HierarchicalQP:
     def __init__(self, levels: list[list[Task]], limits: JointLimits, regularization: float = 1e-5,
                  rank_tol: float = 1e-8):
@@ -79,9 +100,18 @@ class HierarchicalQP:
         self.mu = regularization
         self.rank_tol = rank_tol
         self.last: list[LevelResult] = []
+        self._prepared: _Prepared | None = None
 
     def solve(self, model: pin.Model, data: pin.Data, q: np.ndarray, dt: float) -> np.ndarray:
         """Velocity ``v`` (nv) for one step of ``dt`` seconds from configuration ``q``."""
+        self.prepare(model, data, q, dt)
+        return self.finish()
+
+    def prepare(self, model: pin.Model, data: pin.Data, q: np.ndarray, dt: float) -> None:
+        """First half of :meth:`solve`: the bounds, the kinematics at ``q`` (in ``data``, which must
+        not be recomputed at another configuration before :meth:`finish`), each active task's rows
+        for its current target and the fast path's KKT matrix, factorized."""
+        self._prepared = None
         if not np.all(np.isfinite(q)):
             raise InfeasibleError(0, "configuration contains NaN or inf")
         try:
@@ -90,19 +120,42 @@ class HierarchicalQP:
             raise InfeasibleError(0, str(exc)) from exc
         pin.computeJointJacobians(model, data, q)
         pin.updateFramePlacements(model, data)
-        bounded = self.limits.v_index
         levels = [tasks for tasks in ([t for t in level if t.active] for level in self.levels) if tasks]
-        stacked = [_stack([t.rows(model, data, q) for t in tasks]) for tasks in levels]
-        self.last = [LevelResult([t.name for t in tasks], False, A, b) for tasks, (A, b) in zip(levels, stacked)]
-        v = self._solve_exact_upper(stacked, lo, hi, bounded)
+        stacked, spans = [], {}
+        for k, tasks in enumerate(levels):
+            rows = [t.rows(model, data, q) for t in tasks]
+            start = 0
+            for task, (_, b) in zip(tasks, rows):
+                spans[task] = (k, slice(start, start + len(b)))
+                start += len(b)
+            stacked.append(_stack(rows))
+        self._prepared = _Prepared(model, data, q, lo, hi, levels, stacked, spans, self._factor_kkt(stacked))
+
+    def finish(self, retargeted: tuple[Task, ...] = ()) -> np.ndarray:
+        """Second half of :meth:`solve`, after ``retargeted`` tasks (active ones of the prepared
+        stack) got new targets: their rows are read again, at the prepared configuration."""
+        p, self._prepared = self._prepared, None
+        if p is None:
+            raise RuntimeError("HierarchicalQP.finish without prepare")
+        stacked = list(p.stacked)
+        for task in retargeted:
+            if task not in p.spans:
+                raise ValueError(f"task {task.name!r} is not an active task of the prepared stack")
+            k, rows = p.spans[task]
+            b = stacked[k][1].copy()
+            b[rows] = task.rows(p.model, p.data, p.q)[1]
+            stacked[k] = (stacked[k][0], b)
+        self.last = [LevelResult([t.name for t in tasks], False, A, b) for tasks, (A, b) in zip(p.levels, stacked)]
+        lo, hi, bounded = p.lo, p.hi, self.limits.v_index
+        v = self._solve_exact_upper(stacked, p.kkt, lo, hi, bounded)
         if v is not None:
             return v
-        v = np.zeros(model.nv)
+        v = np.zeros(p.model.nv)
         N = None  # basis of the directions the higher levels leave free; None = identity
-        for k, (tasks, (A, b)) in enumerate(zip(levels, stacked)):
+        for k, (tasks, (A, b)) in enumerate(zip(p.levels, stacked)):
             AN = A if N is None else A @ N
             r = b - A @ v
-            last = k == len(levels) - 1
+            last = k == len(p.levels) - 1
             z = None
             if not last:
                 qr = _PivotedQR(AN, self.rank_tol)
@@ -122,22 +175,31 @@ class HierarchicalQP:
         v[bounded] = np.clip(v[bounded], lo, hi)
         return v
 
-    def _solve_exact_upper(self, stacked, lo, hi, bounded) -> np.ndarray | None:
-        """The fast path (module docstring): ``v``, or None when it does not apply."""
+    def _factor_kkt(self, stacked) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """The fast path's ``E`` and the LU factors of its KKT matrix (module docstring), or None
+        when the stack has one level or the matrix is singular."""
         if len(stacked) < 2:
             return None
         E = np.vstack([A for A, _ in stacked[:-1]])
-        f = np.concatenate([b for _, b in stacked[:-1]])
-        A, b = stacked[-1]
+        A = stacked[-1][0]
         n, m = A.shape[1], E.shape[0]
         K = np.zeros((n + m, n + m))
         K[:n, :n] = A.T @ A
         K.flat[: n * (n + m + 1) : n + m + 1] += self.mu  # μ on G's diagonal
         K[:n, n:] = E.T
         K[n:, :n] = E
-        rhs = np.concatenate([A.T @ b, f])
-        _, _, x, info = _gesv(K, rhs)
-        v = x[:n]
+        lu, piv, info = _getrf(K)
+        return (E, lu, piv) if info == 0 else None
+
+    def _solve_exact_upper(self, stacked, kkt, lo, hi, bounded) -> np.ndarray | None:
+        """The fast path (module docstring): ``v``, or None when it does not apply."""
+        if kkt is None:
+            return None
+        E, lu, piv = kkt
+        f = np.concatenate([b for _, b in stacked[:-1]])
+        A, b = stacked[-1]
+        x, info = _getrs(lu, piv, np.concatenate([A.T @ b, f]))
+        v = x[: A.shape[1]]
         vb = v[bounded]
         if not (info == 0 and np.all((vb >= lo) & (vb <= hi)) and
                 np.linalg.norm(E @ v - f) <= EXACT_TOL * (1.0 + np.linalg.norm(f))):

@@ -50,6 +50,7 @@ class WholeBodyIK:
         near = (joints > robot.lower - START_TOLERANCE) & (joints < robot.upper + START_TOLERANCE)
         self.q[robot.q_index] = np.where(near, np.clip(joints, robot.lower, robot.upper), joints)
         self._stale = True
+        self._prepared: tuple[np.ndarray, float] | None = None  # (q it was prepared at, dt)
         ids = robot.frame_ids
         self.feet = {s: FrameTask(f"{s}_foot", ids[f"{s}_foot"], gain=gain) for s in SIDES}
         self.com = ComTask(gain=gain, locked_dofs=hand_tool_dofs(robot))
@@ -94,7 +95,25 @@ class WholeBodyIK:
 
     def step(self, dt: float) -> np.ndarray:
         """Solve the stack, integrate ``q`` over ``dt`` and return the velocity ``v`` (nv)."""
-        v = self.solver.solve(self.robot.pin, self.data, self.q, dt)
+        self.prepare(dt)
+        return self.finish()
+
+    def prepare(self, dt: float) -> None:
+        """First half of :meth:`step` (``HierarchicalQP.prepare``): all the solve needs from ``q``
+        and the targets set so far."""
+        self.solver.prepare(self.robot.pin, self.data, self.q, dt)
+        self._prepared = (self.q, dt)
+
+    def finish(self, retargeted: tuple = ()) -> np.ndarray:
+        """Second half of :meth:`step`, after the ``retargeted`` tasks got new targets. Prepares
+        again first if ``q`` was set since :meth:`prepare`."""
+        if self._prepared is None:
+            raise RuntimeError("WholeBodyIK.finish without prepare")
+        q, dt = self._prepared
+        if q is not self.q:
+            self.prepare(dt)
+        self._prepared = None
+        v = self.solver.finish(retargeted)
         self.q = pin.integrate(self.robot.pin, self.q, v * dt)
         self._stale = True  # frame placements are recomputed only when a pose is asked for
         return v
