@@ -78,3 +78,29 @@ def test_arm_swing_starts_smoothly_and_stays_in_limits(talos):
     np.testing.assert_allclose(swing(1.7)[others], np.clip(base, talos.lower, talos.upper)[others])
     with pytest.raises(ValueError, match="not joints of the robot"):
         ArmSwing.for_joints(("arm_left_9_joint",), talos.joint_names, base, talos.lower, talos.upper)
+
+
+def test_preparing_while_the_robot_moves_changes_no_command(talos):
+    """prepare() between write and read (as run_walk does) gives the commands of step() alone."""
+    from robot_ctrl.control.walking_controller import WalkingController
+    from robot_ctrl.hw.mujoco_backend import MujocoBackend
+
+    hw = MujocoBackend(talos)
+    hw.configure()
+    hw.activate()
+    state = hw.read()
+    prepared, plain = WalkingController(talos, state), WalkingController(talos, state)
+    for c in (prepared, plain):
+        c.wpg.set_velocity(0.2, 0.0, 0.0)
+    single = 0
+    for _ in range(300):  # 1.5 s: into the first steps
+        command = prepared.step(state)
+        hw.write(command)
+        prepared.prepare()
+        expected = plain.step(state)
+        for field in ("q", "dq", "tau_ff"):
+            np.testing.assert_array_equal(getattr(command, field), getattr(expected, field))
+        state = hw.read()
+        single += prepared.reference.phase == "single"
+    hw.close()
+    assert single > 20  # it stepped

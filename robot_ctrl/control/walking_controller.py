@@ -6,7 +6,8 @@ stretch them) and the dynamic filter corrects the CoM plan for the whole-body dy
 is sampled at the tick; the balance stabilizer corrects the CoM reference from the measured state;
 the IK (feet, then CoM + waist, then posture) integrates the reference configuration; the command
 carries the quasi-static torque feedforward (with the LIP's d'Alembert force) for the planned contact
-split.
+split. Everything before the stabilizer's correction is :meth:`WalkingController.prepare`, which a
+loop can run while the robot executes the previous command.
 """
 
 from __future__ import annotations
@@ -71,37 +72,55 @@ class WalkingController:
         self._statics = robot.pin.createData()
         self.k = 0
         self.reference: WalkReference | None = None
+        self._prepared: tuple[WalkReference, np.ndarray, np.ndarray] | None = None  # see prepare
 
     @property
     def sample_due(self) -> bool:
-        """The next :meth:`step` starts a new pattern-generator sample (references set now apply to it)."""
+        """The next tick starts a new pattern-generator sample (references set now, before its
+        :meth:`prepare`, apply to it)."""
         return self.k * self.dt >= self.wpg.t - 1e-9
 
-    def step(self, state: JointState) -> JointCommand:
+    def prepare(self) -> None:
+        """The part of the next :meth:`step` that the measured state does not enter: the pattern
+        generator's sample (MPC and dynamic filter) when one is due, the plan at the tick, every IK
+        target but the CoM's correction, and the IK's kinematics and factorization. A loop may
+        call it while the robot moves (between ``write`` and ``read``); :meth:`step` calls it
+        when the loop did not."""
         t = self.k * self.dt
         if self.sample_due:
             self.wpg.update()
             self.dynfilter.update(self.wpg, self.ik.q, self.com_z, self.sole_height, self.upper_body,
                                   self.wpg.sample_start)
         tau = t - self.wpg.sample_start
-        self.k += 1
         ref = self.wpg.sample(tau)
-        self.reference = ref
         ik = self.ik
         for side in SIDES:
             pos = ref.foot_position[side] + [0.0, 0.0, self.sole_height]
             lin, wz = ref.foot_velocity[side]
             ik.feet[side].set_target(pin.SE3(pin.utils.rpyToMatrix(0.0, 0.0, ref.foot_yaw[side]), pos),
                                      np.concatenate([lin, [0.0, 0.0, wz]]))
-        self.estimate = self.estimator.estimate(state)
         offset, offset_velocity = self.dynfilter.offset(tau)
         com, com_velocity = ref.com + offset, ref.com_velocity + offset_velocity
-        correction = self.stabilizer.correction(self.estimate, com, com_velocity, ref.zmp, self.dt)
-        ik.com.set_target(np.array([*(com + correction), self.com_z]), np.array([*com_velocity, 0.0]))
+        ik.com.set_target(np.array([*com, self.com_z]), np.array([*com_velocity, 0.0]))
         ik.posture.set_target(self.upper_body(t))
         waist_yaw = np.arctan2(sum(np.sin(ref.foot_yaw[s]) for s in SIDES), sum(np.cos(ref.foot_yaw[s]) for s in SIDES))
         ik.waist.set_target(pin.SE3(pin.utils.rpyToMatrix(0.0, 0.0, waist_yaw), np.zeros(3)))
-        v = ik.step(self.dt)
+        ik.prepare(self.dt)
+        self._prepared = (ref, com, com_velocity)
+
+    def step(self, state: JointState) -> JointCommand:
+        """The joint command for the tick from the measured ``state``: the balance stabilizer's
+        CoM correction completes the prepared IK solve."""
+        if self._prepared is None:
+            self.prepare()
+        (ref, com, com_velocity), self._prepared = self._prepared, None
+        self.k += 1
+        self.reference = ref
+        self.estimate = self.estimator.estimate(state)
+        correction = self.stabilizer.correction(self.estimate, com, com_velocity, ref.zmp, self.dt)
+        ik = self.ik
+        ik.com.set_target(np.array([*(com + correction), self.com_z]), ik.com.target_velocity)
+        v = ik.finish(retargeted=(ik.com,))
         frames, shares = self.contact_split(ref)
         tau_ff, _ = static_torques(self.robot.pin, self._statics, ik.q, frames, shares,
                                    np.array([*ref.com_acceleration, 0.0]))

@@ -14,6 +14,7 @@ controller waits for the result when the worker is late, so a run does not depen
 from __future__ import annotations
 
 import multiprocessing as mp
+import os
 from dataclasses import dataclass
 from typing import Callable, NoReturn
 
@@ -38,6 +39,13 @@ class FilterResult:
 
 def _serve(connection, robot: RobotModel, horizon: int, com_height: float, mode: str, passes: int) -> None:
     """Worker process: refine every request in order and send the result back, until ``None``."""
+    # Idle priority: the result is due a sample later, while the loop's physics thread shares this
+    # core and is waited for every tick. Linux's SCHED_IDLE yields the core the moment the physics
+    # wakes; elsewhere, the lowest nice value.
+    if hasattr(os, "SCHED_IDLE"):
+        os.sched_setscheduler(0, os.SCHED_IDLE, os.sched_param(0))
+    elif hasattr(os, "nice"):
+        os.nice(19)
     dynfilter = DynamicFilter(robot, horizon, com_height, mode, passes)
     while (request := connection.recv()) is not None:
         dynfilter.refine(request)

@@ -79,28 +79,33 @@ def run_walk(robot: RobotModel, hw: HardwareAdapter, goal: WalkGoal, params: Wal
     pending: list[tuple[float, object]] = []
     stood_since = None
     max_time = follower.end_time + follower.settle_time + 10.0
+    def steer(t: float) -> None:
+        """At a pattern-generator sample: the path follower's velocity, or the final footsteps."""
+        if not controller.sample_due:
+            return
+        planned_base = np.array([*(np.array([wpg.com_x[0], wpg.com_y[0]]) - rotation(wpg.heading) @ com_offset),
+                                 wpg.heading])
+        was_done = follower.done
+        velocity = follower.velocity(t, planned_base)
+        if follower.done and not was_done:
+            # Final footsteps: the start stance, carried to the goal pose.
+            wpg.stop_at(*(Footstep(side, *(goal_base[:2] + rotation(goal_base[2]) @ feet_offset[side]),
+                                   float(goal_base[2])) for side in ("left", "right")))
+            log(f"t = {t:6.2f} s  path done, stopping at the goal")
+        elif not follower.done:
+            wpg.set_velocity(*velocity)
+
     wall0 = time.perf_counter()
     k = 0
+    steer(0.0)
     try:
         while True:
             t = k * control_dt
-            if controller.sample_due:
-                planned_base = np.array([*(np.array([wpg.com_x[0], wpg.com_y[0]])
-                                           - rotation(wpg.heading) @ com_offset), wpg.heading])
-                was_done = follower.done
-                velocity = follower.velocity(t, planned_base)
-                if follower.done and not was_done:
-                    # Final footsteps: the start stance, carried to the goal pose.
-                    wpg.stop_at(*(Footstep(side, *(goal_base[:2] + rotation(goal_base[2]) @ feet_offset[side]),
-                                           float(goal_base[2])) for side in ("left", "right")))
-                    log(f"t = {t:6.2f} s  path done, stopping at the goal")
-                elif not follower.done:
-                    wpg.set_velocity(*velocity)
             command = controller.step(state)
-            _record(log_series, controller, state)
             hw.write(command)
-            state = hw.read()
-            metrics.update(state)
+            # While the robot moves: log this tick, then plan the next one (nothing here reads the
+            # state the write will produce).
+            _record(log_series, controller, state)
             est = controller.estimate
             if est.zmp is not None:
                 contact_samples += 1
@@ -109,6 +114,11 @@ def run_walk(robot: RobotModel, hw: HardwareAdapter, goal: WalkGoal, params: Wal
                 td = wpg.touchdowns[len(pending) + len(footsteps)]
                 pending.append((td.t + SETTLE_AFTER_TOUCHDOWN, td))
                 log(f"t = {td.t:6.2f} s  {td.planned.side} foot down at ({td.planned.x:.3f}, {td.planned.y:.3f}) m")
+            plan_standing = wpg.standing and follower.done  # before the next tick's plan
+            steer((k + 1) * control_dt)
+            controller.prepare()
+            state = hw.read()
+            metrics.update(state)
             while pending and state.t >= pending[0][0] - 1e-9:
                 _, td = pending.pop(0)
                 sole = est.soles[td.planned.side]
@@ -120,7 +130,7 @@ def run_walk(robot: RobotModel, hw: HardwareAdapter, goal: WalkGoal, params: Wal
             if metrics.fell:
                 log(f"t = {state.t:6.2f} s  FELL: {metrics.fall_reason}")
                 break
-            if wpg.standing and follower.done:
+            if plan_standing:
                 stood_since = state.t if stood_since is None else stood_since
                 if state.t - stood_since >= STAND_AFTER:
                     break
