@@ -3,8 +3,11 @@
 Walks 2 m at 0.25 m/s with the complete controller (MPC pattern generator, DCM stabilizer and
 state estimator, stack-of-tasks IK, torque feedforward) through the hardware adapter, and prints
 the real-time factor (simulated seconds per wall second) with the median wall time of each stage
-per control tick. For reference it also prints the physics-only factor (the robot standing under
-constant servo commands). Run: ``python benchmarks/bench_loop.py``.
+per control tick. A tick is: ``step`` (estimator, stabilizer, IK finish, feedforward), ``write``
+(which starts the period's physics on the backend's thread), ``prepare`` of the next tick while
+the physics runs, and ``read`` (which waits for the physics). For reference it also prints the
+physics-only factor (the robot standing under constant servo commands). Run:
+``python benchmarks/bench_loop.py``.
 """
 
 from __future__ import annotations
@@ -57,16 +60,19 @@ def main() -> None:
     robot = load_robot("talos")
     timer = StageTimer()
     hw = MujocoBackend(robot)
-    hw.write = timer.wrap("physics (write: 5 steps)", hw.write)
-    hw.read = timer.wrap("state read", hw.read)
+    hw.write = timer.wrap("write (command in, physics started)", hw.write)
+    hw.read = timer.wrap("read (waits for the physics)", hw.read)
+    hw.world._run_period = timer.wrap("physics period (5 steps, own thread)", hw.world._run_period)
     original = wc.WalkingController.__init__
 
     def instrumented(self, *args, **kwargs):
         original(self, *args, **kwargs)
-        self.wpg.update = timer.wrap("MPC update (every 20th tick)", self.wpg.update)
-        self.ik.step = timer.wrap("IK", self.ik.step)
-        self.estimator.estimate = timer.wrap("estimator", self.estimator.estimate)
-        self.step = timer.wrap("controller tick (all of the above but physics)", self.step)
+        self.wpg.update = timer.wrap("  MPC update (every 20th tick)", self.wpg.update)
+        self.ik.prepare = timer.wrap("  IK prepare", self.ik.prepare)
+        self.ik.finish = timer.wrap("  IK finish", self.ik.finish)
+        self.estimator.estimate = timer.wrap("  estimator", self.estimator.estimate)
+        self.prepare = timer.wrap("controller prepare (during the physics)", self.prepare)
+        self.step = timer.wrap("controller step (after the read)", self.step)
 
     wc.WalkingController.__init__ = instrumented
     try:

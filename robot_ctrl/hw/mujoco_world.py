@@ -18,6 +18,7 @@ from __future__ import annotations
 import sys
 import threading
 import time
+import weakref
 from pathlib import Path
 
 import mujoco
@@ -79,9 +80,10 @@ class MujocoWorld:
         touch ``m`` or ``d`` until :meth:`finish_step`."""
         self._begin()
         if self._thread is None:
-            self._thread = _PeriodThread(self._run_period)
+            self._thread = _PeriodThread()
+            self._close_thread = weakref.finalize(self, self._thread.close)
         self._running, self._on_thread = True, True
-        self._thread.start()
+        self._thread.run(self._run_period)
 
     def finish_step(self) -> None:
         """Wait for the period started last (if any), then compute the bodies' contact wrenches
@@ -117,7 +119,7 @@ class MujocoWorld:
     def close(self) -> None:
         self.finish_step()
         if self._thread is not None:
-            self._thread.close()
+            self._close_thread()
             self._thread = None
         if self._viewer is not None:
             self._viewer.close()
@@ -125,35 +127,44 @@ class MujocoWorld:
 
 
 class _PeriodThread:
-    """A daemon thread that runs ``work`` once per :meth:`start`; :meth:`wait` blocks until it is
-    done and re-raises what it raised. Raw locks, not Events: each wake-up of the thread costs one
-    handover of the interpreter lock, not several."""
+    """A daemon thread that runs one job per :meth:`run`; :meth:`wait` blocks until it is done and
+    re-raises what it raised. Raw locks, not Events: each wake-up of the thread costs one handover
+    of the interpreter lock, not several. The thread holds a job only while running it, so a world
+    it serves can be collected (its finalizer closes the thread)."""
 
-    def __init__(self, work):
-        self._work = work
+    _open = 0  # threads alive: the switch interval is shortened while any is
+    _saved_interval = 0.0
+
+    def __init__(self):
         self._go = threading.Lock()
         self._go.acquire()
         self._done = threading.Lock()
         self._done.acquire()
+        self._job = None
         self._error: BaseException | None = None
-        self._stop = False
-        self._switch_interval = sys.getswitchinterval()
-        sys.setswitchinterval(min(self._switch_interval, SWITCH_INTERVAL))
+        self._closed = False
+        if _PeriodThread._open == 0:
+            _PeriodThread._saved_interval = sys.getswitchinterval()
+            sys.setswitchinterval(min(_PeriodThread._saved_interval, SWITCH_INTERVAL))
+        _PeriodThread._open += 1
         self._thread = threading.Thread(target=self._loop, name="mujoco-physics", daemon=True)
         self._thread.start()
 
     def _loop(self) -> None:
         while True:
             self._go.acquire()
-            if self._stop:
+            job, self._job = self._job, None
+            if job is None:  # close()
                 return
             try:
-                self._work()
+                job()
             except BaseException as exc:  # handed to the waiting caller
                 self._error = exc
+            del job
             self._done.release()
 
-    def start(self) -> None:
+    def run(self, job) -> None:
+        self._job = job
         self._go.release()
 
     def wait(self) -> None:
@@ -163,7 +174,11 @@ class _PeriodThread:
             raise error
 
     def close(self) -> None:
-        self._stop = True
-        self._go.release()
+        if self._closed:
+            return
+        self._closed = True
+        self._go.release()  # with no job: the loop ends
         self._thread.join()
-        sys.setswitchinterval(self._switch_interval)
+        _PeriodThread._open -= 1
+        if _PeriodThread._open == 0:
+            sys.setswitchinterval(_PeriodThread._saved_interval)
