@@ -58,8 +58,7 @@ class MujocoWorld:
         self._sensordata = np.zeros((1, n, m.nsensordata))
         self._rollout = mujoco.rollout.Rollout(nthread=0)  # runs on the calling thread
         self._thread: _PeriodThread | None = None
-        self._running = False
-        self._on_thread = False
+        self._running = False  # a period started by start_step has not been finished
 
     def open_viewer(self) -> None:
         if self._want_viewer and self._viewer is None:
@@ -69,11 +68,11 @@ class MujocoWorld:
         self._wall0 = time.perf_counter() - self.d.time
 
     def step(self) -> None:
-        """Advance the physics by one control period (see :meth:`finish_step` for what it leaves)."""
+        """Advance the physics by one control period, on the calling thread (see
+        :meth:`finish_step` for what it leaves)."""
         self._begin()
         self._run_period()
-        self._running, self._on_thread = True, False
-        self.finish_step()
+        self._end_period()
 
     def start_step(self) -> None:
         """Start the next control period on the physics thread and return at once. Nothing may
@@ -82,7 +81,7 @@ class MujocoWorld:
         if self._thread is None:
             self._thread = _PeriodThread()
             self._close_thread = weakref.finalize(self, self._thread.close)
-        self._running, self._on_thread = True, True
+        self._running = True
         self._thread.run(self._run_period)
 
     def finish_step(self) -> None:
@@ -93,8 +92,10 @@ class MujocoWorld:
         if not self._running:
             return
         self._running = False
-        if self._on_thread:
-            self._thread.wait()
+        self._thread.wait()
+        self._end_period()
+
+    def _end_period(self) -> None:
         self.step_states[0] = self._start[0]
         self.step_states[1:] = self._after[0, :-1]
         mujoco.mj_rnePostConstraint(self.m, self.d)

@@ -79,6 +79,7 @@ def run_walk(robot: RobotModel, hw: HardwareAdapter, goal: WalkGoal, params: Wal
     pending: list[tuple[float, object]] = []
     stood_since = None
     max_time = follower.end_time + follower.settle_time + 10.0
+
     def steer(t: float) -> None:
         """At a pattern-generator sample: the path follower's velocity, or the final footsteps."""
         if not controller.sample_due:
