@@ -108,7 +108,7 @@ def test_background_period_is_mj_step_in_a_loop(talos):
     knee0 = q[(i := talos.joint_names.index("leg_left_4_joint"))]
     assert m.nu == talos.nj  # the robot's servos are the scene's only actuators
     acts = slice(0, talos.nj)
-    for k in range(20):
+    for _ in range(20):
         q[i] += 0.01  # a knee bending: the state moves every period
         command = hold(talos, q)
         hw.write(command)

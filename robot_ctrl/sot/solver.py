@@ -129,6 +129,7 @@ class HierarchicalQP:
                 spans[task] = (k, slice(start, start + len(b)))
                 start += len(b)
             stacked.append(_stack(rows))
+        self.last = [LevelResult([t.name for t in tasks], False, A, b) for tasks, (A, b) in zip(levels, stacked)]
         self._prepared = _Prepared(model, data, q, lo, hi, levels, stacked, spans, self._factor_kkt(stacked))
 
     def finish(self, retargeted: tuple[Task, ...] = ()) -> np.ndarray:
@@ -145,7 +146,7 @@ class HierarchicalQP:
             b = stacked[k][1].copy()
             b[rows] = task.rows(p.model, p.data, p.q)[1]
             stacked[k] = (stacked[k][0], b)
-        self.last = [LevelResult([t.name for t in tasks], False, A, b) for tasks, (A, b) in zip(p.levels, stacked)]
+            self.last[k].b = b
         lo, hi, bounded = p.lo, p.hi, self.limits.v_index
         v = self._solve_exact_upper(stacked, p.kkt, lo, hi, bounded)
         if v is not None:
