@@ -5,7 +5,8 @@ A pass is the whole-body preview (19 weighted least-squares Newton steps over th
 (Pinocchio RNEA at 15 samples) and the preview-control correction. Talos walks 2 m at 0.25 m/s in
 MuJoCo (1 ms physics, 200 Hz control) with the arms swinging; the filter runs its passes once per
 0.1 s sample, in the control loop (``inline``) or in a worker process one sample behind (``worker``,
-the default of ``robot-ctrl walk``). Run: ``python benchmarks/bench_dynfilter.py [--passes 2]``.
+the default of ``robot-ctrl walk``). The simulated robot runs in its own process, as in
+``robot-ctrl walk``. Run: ``python benchmarks/bench_dynfilter.py [--passes 2]``.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ import numpy as np
 
 from robot_ctrl.control.path_follower import WalkGoal
 from robot_ctrl.dynfilter import dynamic_filter as df
-from robot_ctrl.hw.mujoco_backend import MujocoBackend
+from robot_ctrl.hw.hardware import open_hardware
 from robot_ctrl.robot import load_robot
 from robot_ctrl.scenarios.walk import run_walk
 
@@ -40,9 +41,10 @@ def main() -> None:
     df.DynamicFilter.refine = timed  # the worker process's calls are not seen here: only the inline run's
     try:
         for name, (mode, worker) in runs.items():
-            results[name] = run_walk(robot, MujocoBackend(robot), WalkGoal(distance=2.0, speed=0.25),
-                                     log=lambda _: None, arms="swing", dynfilter=mode, dynfilter_passes=args.passes,
-                                     dynfilter_worker=worker)
+            with open_hardware("mujoco", robot) as hw:
+                results[name] = run_walk(robot, hw, WalkGoal(distance=2.0, speed=0.25), log=lambda _: None,
+                                         arms="swing", dynfilter=mode, dynfilter_passes=args.passes,
+                                         dynfilter_worker=worker)
     finally:
         df.DynamicFilter.refine = original
     per_pass = np.array([t / n for t, n in samples]) * 1e3

@@ -1,17 +1,19 @@
 """Full walking loop real-time factor: Talos in MuJoCo (1 ms physics), 200 Hz control.
 
 Walks 2 m at 0.25 m/s with the complete controller (MPC pattern generator, DCM stabilizer and
-state estimator, stack-of-tasks IK, torque feedforward) through the hardware adapter, and prints
+state estimator, stack-of-tasks IK, torque feedforward) through the hardware adapter, with the
+simulated robot in its own process (``RobotProcess``, as ``robot-ctrl walk`` runs it), and prints
 the real-time factor (simulated seconds per wall second) with the median wall time of each stage
-per control tick. A tick is: ``step`` (estimator, stabilizer, IK finish, feedforward), ``write``
-(which starts the period's physics on the backend's thread), ``prepare`` of the next tick while
-the physics runs, and ``read`` (which waits for the physics). For reference it also prints the
-physics-only factor (the robot standing under constant servo commands). Run:
-``python benchmarks/bench_loop.py``.
+of the controller's tick: ``step`` (estimator, stabilizer, IK finish), ``write`` (the command
+handed to the robot's process), ``prepare`` of the next tick while the robot moves, and ``read``
+(the wait for the robot's period and state). For reference it also prints the physics-only factor
+(the robot standing under constant servo commands), with the backend in this process and in its
+own. Run: ``python benchmarks/bench_loop.py``.
 """
 
 from __future__ import annotations
 
+import functools
 import time
 from collections import defaultdict
 
@@ -20,6 +22,7 @@ import numpy as np
 from robot_ctrl.control import walking_controller as wc
 from robot_ctrl.control.path_follower import WalkGoal
 from robot_ctrl.hw.mujoco_backend import MujocoBackend
+from robot_ctrl.hw.robot_process import RobotProcess
 from robot_ctrl.hw.types import JointCommand
 from robot_ctrl.robot import load_robot
 from robot_ctrl.scenarios.walk import run_walk
@@ -41,28 +44,28 @@ class StageTimer:
         return timed
 
 
-def physics_only_rtf(robot, seconds: float = 5.0) -> float:
-    hw = MujocoBackend(robot)
+def physics_only_rtf(robot, hw, seconds: float = 5.0) -> float:
     hw.configure()
     hw.activate()
     state = hw.read()
     zero = np.zeros(robot.nj)
     command = JointCommand(q=state.q, dq=zero, kp=robot.kp, kd=robot.kd, tau_ff=zero)
-    ticks = round(seconds / hw.control_dt)
+    ticks = round(seconds / 0.005)
     t0 = time.perf_counter()
     for _ in range(ticks):
         hw.write(command)
         hw.read()
-    return seconds / (time.perf_counter() - t0)
+    rtf = seconds / (time.perf_counter() - t0)
+    hw.close()
+    return rtf
 
 
 def main() -> None:
     robot = load_robot("talos")
     timer = StageTimer()
-    hw = MujocoBackend(robot)
-    hw.write = timer.wrap("write (command in, physics started)", hw.write)
-    hw.read = timer.wrap("read (waits for the physics)", hw.read)
-    hw.world._run_period = timer.wrap("physics period (5 steps, own thread)", hw.world._run_period)
+    hw = RobotProcess(functools.partial(MujocoBackend, robot), robot.nj)
+    hw.write = timer.wrap("write (command handed to the robot)", hw.write)
+    hw.read = timer.wrap("read (waits for the robot's period)", hw.read)
     original = wc.WalkingController.__init__
 
     def instrumented(self, *args, **kwargs):
@@ -71,7 +74,7 @@ def main() -> None:
         self.ik.prepare = timer.wrap("  IK prepare", self.ik.prepare)
         self.ik.finish = timer.wrap("  IK finish", self.ik.finish)
         self.estimator.estimate = timer.wrap("  estimator", self.estimator.estimate)
-        self.prepare = timer.wrap("controller prepare (during the physics)", self.prepare)
+        self.prepare = timer.wrap("controller prepare (while the robot moves)", self.prepare)
         self.step = timer.wrap("controller step (after the read)", self.step)
 
     wc.WalkingController.__init__ = instrumented
@@ -83,7 +86,9 @@ def main() -> None:
           f"(target >= 10x), fell: {report['fell']}")
     for name, samples in timer.samples.items():
         print(f"  {name:48s} median {np.median(samples) * 1e3:7.3f} ms  ({len(samples)} calls)")
-    print(f"physics only (standing, same backend): real-time factor {physics_only_rtf(robot):.1f}x")
+    inline = physics_only_rtf(robot, MujocoBackend(robot))
+    remote = physics_only_rtf(robot, RobotProcess(functools.partial(MujocoBackend, robot), robot.nj))
+    print(f"physics only (standing): real-time factor {inline:.1f}x in this process, {remote:.1f}x in its own")
 
 
 if __name__ == "__main__":

@@ -33,7 +33,7 @@ def _walk(args: argparse.Namespace) -> int:
     import math
 
     from robot_ctrl.control.path_follower import WalkGoal
-    from robot_ctrl.hw.mujoco_backend import MujocoBackend
+    from robot_ctrl.hw.hardware import open_hardware
     from robot_ctrl.robot.model import load_robot
     from robot_ctrl.scenarios.walk import run_walk
 
@@ -44,9 +44,10 @@ def _walk(args: argparse.Namespace) -> int:
         raise ConfigError(f"walk: {exc}".replace("turn = ", "--turn-deg (in rad) = ")) from exc
     _check_viewer(args)
     robot = load_robot(args.robot)
-    report = run_walk(robot, MujocoBackend(robot, viewer=args.viewer), goal, stabilize=not args.no_stabilizer,
-                      out_dir=args.out, arms=args.arms, dynfilter=args.dynfilter, dynfilter_passes=args.dynfilter_passes,
-                      dynfilter_worker=not args.dynfilter_inline)
+    with open_hardware("mujoco", robot, viewer=args.viewer) as hw:
+        report = run_walk(robot, hw, goal, stabilize=not args.no_stabilizer, out_dir=args.out, arms=args.arms,
+                          dynfilter=args.dynfilter, dynfilter_passes=args.dynfilter_passes,
+                          dynfilter_worker=not args.dynfilter_inline)
     return 1 if report["fell"] else 0
 
 

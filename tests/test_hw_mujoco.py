@@ -95,9 +95,9 @@ def test_servo_saturation_is_reported_as_demand(talos):
     assert abs(state.tau[i]) <= talos.effort[i] + 1e-9
 
 
-def test_background_period_is_mj_step_in_a_loop(talos):
-    """write() simulates the period on the physics thread: the same states, bit for bit, as mj_step
-    called in a loop, and the demand record is the servo law at each step's state."""
+def test_control_period_is_mj_step_in_a_loop(talos):
+    """write() simulates the period in one rollout: the same states, bit for bit, as mj_step called
+    in a loop, and the demand record is the servo law at each step's state."""
     hw = MujocoBackend(talos)
     hw.configure()
     hw.activate()

@@ -1,7 +1,8 @@
 """Choosing a hardware backend by name, as the CLI's ``--hw`` does.
 
-- ``mujoco``: the robot simulated in MuJoCo (``MujocoBackend``), no safety layer (the simulation
-  reports saturation and falls itself).
+- ``mujoco``: the robot simulated in MuJoCo (``MujocoBackend``) in a process of its own
+  (``RobotProcess``: the controller computes while the robot moves), no safety layer (the
+  simulation reports saturation and falls itself).
 - ``mit-can-emulated``: ``MitCanBackend`` behind a ``SafetyLayer``, talking over python-can virtual
   buses to a ``MitCanEmulator`` whose motors drive the MuJoCo simulation (hardware in the loop).
 - ``dynamixel-emulated``: ``DynamixelBackend`` behind a ``SafetyLayer``, over a pseudo-terminal to a
@@ -15,12 +16,14 @@ watchdog and staleness checks (lock-step: the simulated robot waits for the cont
 from __future__ import annotations
 
 import dataclasses
+import functools
 from contextlib import contextmanager
 from typing import Iterator
 
 from robot_ctrl.hw.adapter import HardwareAdapter
 from robot_ctrl.hw.bus_config import load_bus_config
 from robot_ctrl.hw.mujoco_backend import MujocoBackend
+from robot_ctrl.hw.robot_process import RobotProcess
 from robot_ctrl.hw.safety import SafetyLayer, SafetyLimits
 from robot_ctrl.robot.model import RobotModel
 
@@ -33,10 +36,14 @@ def open_hardware(kind: str, robot: RobotModel, bus_config: str | None = None, v
     """The adapter for ``kind``; emulators are started before and stopped after the block."""
     if kind not in KINDS:
         raise ValueError(f"hw {kind!r} is not one of {', '.join(KINDS)}")
-    plant = MujocoBackend(robot, control_dt, viewer=viewer)
     if kind == "mujoco":
-        yield plant
+        hw = RobotProcess(functools.partial(MujocoBackend, robot, control_dt, viewer=viewer), robot.nj, robot.name)
+        try:
+            yield hw
+        finally:
+            hw.close()
         return
+    plant = MujocoBackend(robot, control_dt, viewer=viewer)
     limits = SafetyLimits.from_robot(robot, control_dt)
     if kind == "mit-can-emulated":
         from robot_ctrl.hw.mit_can_backend import MitCanBackend

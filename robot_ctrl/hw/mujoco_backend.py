@@ -1,9 +1,9 @@
 """MuJoCo simulation backend of the hardware interface, stepping the physics in lock-step.
 
-Alone in its world, each ``write()`` applies the servo command and starts the simulation of one
-control period (``control_dt / timestep`` physics steps) on the world's physics thread, and
-returns: as on a real robot, the caller may compute while the robot moves, and ``read()`` waits for
-the period's end. In a world shared with other robots
+Alone in its world, each ``write()`` applies the servo command and simulates one control period
+(``control_dt / timestep`` physics steps) before it returns; run the backend in a
+:class:`~robot_ctrl.hw.robot_process.RobotProcess` to compute while the robot moves, as on a real
+robot. In a world shared with other robots
 (:class:`~robot_ctrl.hw.mujoco_world.MujocoWorld`), ``write()`` only applies the command and the
 world steps once all robots have written. ``read()`` returns the state at the current time.
 The robot starts in its half-sitting posture with the lowest point of its feet on the floor.
@@ -79,7 +79,6 @@ class MujocoBackend(HardwareAdapter):
 
     # Lifecycle hooks --------------------------------------------------------------------------
     def _on_configure(self) -> None:
-        self.world.finish_step()
         if self._owns_world:
             mujoco.mj_resetData(self.m, self.d)
         x, y, yaw = self._start
@@ -99,7 +98,6 @@ class MujocoBackend(HardwareAdapter):
             self.world.open_viewer()
 
     def _on_estop(self) -> None:
-        self.world.finish_step()
         # Damping mode: no stiffness, no feedforward, joint damping kept.
         self._apply_gains(np.zeros(self.nj), self.robot.kd, np.zeros(self.nj), np.zeros(self.nj))
         self._servo = None
@@ -117,12 +115,11 @@ class MujocoBackend(HardwareAdapter):
         self.m.actuator_biasprm[a, 0] = kd * dq + tau_ff
 
     def _write(self, cmd: JointCommand) -> None:
-        self.world.finish_step()  # a write after a write: the previous period ends first
         self._apply_gains(cmd.kp, cmd.kd, cmd.dq, cmd.tau_ff)
         self.d.ctrl[self._acts] = cmd.q
         self._servo = (cmd.kp, cmd.kd, cmd.kp * cmd.q + self.m.actuator_biasprm[self._acts, 0])
         if self._owns_world:
-            self.world.start_step()
+            self.world.step()
 
     def _peak_demand(self) -> np.ndarray | None:
         """Per joint, the unsaturated servo torque of largest magnitude over the physics steps of
@@ -138,7 +135,6 @@ class MujocoBackend(HardwareAdapter):
         return demand[np.abs(demand).argmax(axis=0), np.arange(self.nj)]
 
     def _read(self) -> JointState:
-        self.world.finish_step()
         m, d, mp = self.m, self.d, self.map
         b, v = mp.base_qpos, mp.base_dof
         wxyz = d.qpos[b + 3 : b + 7]

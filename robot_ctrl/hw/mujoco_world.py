@@ -7,27 +7,20 @@ single robot is stepped by that robot's ``write()``; a world shared by several r
 by :meth:`step` once every controller has written its command for the tick (lock-step).
 
 A control period is one ``mujoco.rollout`` call over its physics steps: the same steps as
-``mj_step`` in a loop (same warm start, bit for bit), with the state after each step kept for
-the backends (their servos' demand) and without the Python interpreter lock held. That lets
-:meth:`start_step` run the period on a background thread, as a real robot moves while its
-controller computes: the caller can do other work until :meth:`finish_step`.
+``mj_step`` in a loop (same warm start, bit for bit), with the state at the start of each step
+kept for the backends (their servos' demand record) and without Python between the steps. To let
+a controller compute while its robot moves, run the robot's backend in a process of its own
+(:class:`~robot_ctrl.hw.robot_process.RobotProcess`).
 """
 
 from __future__ import annotations
 
-import sys
-import threading
 import time
-import weakref
 from pathlib import Path
 
 import mujoco
 import mujoco.rollout
 import numpy as np
-
-#: Interpreter switch interval while a background period runs [s]. The default (5 ms) lets the
-#: controller's Python hold the lock for a whole period before the physics thread may start.
-SWITCH_INTERVAL = 5e-6
 
 
 class MujocoWorld:
@@ -57,8 +50,6 @@ class MujocoWorld:
         self._ctrl = np.zeros((1, n, m.nu))
         self._sensordata = np.zeros((1, n, m.nsensordata))
         self._rollout = mujoco.rollout.Rollout(nthread=0)  # runs on the calling thread
-        self._thread: _PeriodThread | None = None
-        self._running = False  # a period started by start_step has not been finished
 
     def open_viewer(self) -> None:
         if self._want_viewer and self._viewer is None:
@@ -68,34 +59,16 @@ class MujocoWorld:
         self._wall0 = time.perf_counter() - self.d.time
 
     def step(self) -> None:
-        """Advance the physics by one control period, on the calling thread (see
-        :meth:`finish_step` for what it leaves)."""
-        self._begin()
-        self._run_period()
-        self._end_period()
-
-    def start_step(self) -> None:
-        """Start the next control period on the physics thread and return at once. Nothing may
-        touch ``m`` or ``d`` until :meth:`finish_step`."""
-        self._begin()
-        if self._thread is None:
-            self._thread = _PeriodThread()
-            self._close_thread = weakref.finalize(self, self._thread.close)
-        self._running = True
-        self._thread.run(self._run_period)
-
-    def finish_step(self) -> None:
-        """Wait for the period started last (if any), then compute the bodies' contact wrenches
-        (``cfrc_ext``, which ``mj_step`` leaves out) for the backends' force/torque readings.
-        ``d`` then holds what a loop of ``mj_step`` leaves: the state at the end of the period,
-        its forward quantities from the start of the last step."""
-        if not self._running:
-            return
-        self._running = False
-        self._thread.wait()
-        self._end_period()
-
-    def _end_period(self) -> None:
+        """Advance the physics by one control period. ``d`` then holds what a loop of ``mj_step``
+        leaves (the state at the end of the period, its forward quantities from the start of the
+        last step) and the bodies' contact wrenches (``cfrc_ext``, which ``mj_step`` leaves out)
+        for the backends' force/torque readings."""
+        mujoco.mj_getState(self.m, self.d, self._start[0], self.STATE)
+        self._warmstart[0] = self.d.qacc_warmstart
+        self._ctrl[0] = self.d.ctrl
+        self._rollout.rollout_.rollout([self.m], [self.d], self.n_substeps, mujoco.mjtState.mjSTATE_CTRL,
+                                       self._start, self._warmstart, self._ctrl, self._after, self._sensordata,
+                                       None)
         self.step_states[0] = self._start[0]
         self.step_states[1:] = self._after[0, :-1]
         mujoco.mj_rnePostConstraint(self.m, self.d)
@@ -105,81 +78,7 @@ class MujocoWorld:
             if lag > 0:  # pace the viewer at real time
                 time.sleep(lag)
 
-    def _begin(self) -> None:
-        if self._running:
-            raise RuntimeError("MujocoWorld: a control period is still running (call finish_step first)")
-        mujoco.mj_getState(self.m, self.d, self._start[0], self.STATE)
-        self._warmstart[0] = self.d.qacc_warmstart
-        self._ctrl[0] = self.d.ctrl
-
-    def _run_period(self) -> None:
-        self._rollout.rollout_.rollout([self.m], [self.d], self.n_substeps, mujoco.mjtState.mjSTATE_CTRL,
-                                       self._start, self._warmstart, self._ctrl, self._after, self._sensordata,
-                                       None)
-
     def close(self) -> None:
-        self.finish_step()
-        if self._thread is not None:
-            self._close_thread()
-            self._thread = None
         if self._viewer is not None:
             self._viewer.close()
             self._viewer = None
-
-
-class _PeriodThread:
-    """A daemon thread that runs one job per :meth:`run`; :meth:`wait` blocks until it is done and
-    re-raises what it raised. Raw locks, not Events: each wake-up of the thread costs one handover
-    of the interpreter lock, not several. The thread holds a job only while running it, so a world
-    it serves can be collected (its finalizer closes the thread)."""
-
-    _open = 0  # threads alive: the switch interval is shortened while any is
-    _saved_interval = 0.0
-
-    def __init__(self):
-        self._go = threading.Lock()
-        self._go.acquire()
-        self._done = threading.Lock()
-        self._done.acquire()
-        self._job = None
-        self._error: BaseException | None = None
-        self._closed = False
-        if _PeriodThread._open == 0:
-            _PeriodThread._saved_interval = sys.getswitchinterval()
-            sys.setswitchinterval(min(_PeriodThread._saved_interval, SWITCH_INTERVAL))
-        _PeriodThread._open += 1
-        self._thread = threading.Thread(target=self._loop, name="mujoco-physics", daemon=True)
-        self._thread.start()
-
-    def _loop(self) -> None:
-        while True:
-            self._go.acquire()
-            job, self._job = self._job, None
-            if job is None:  # close()
-                return
-            try:
-                job()
-            except BaseException as exc:  # handed to the waiting caller
-                self._error = exc
-            del job
-            self._done.release()
-
-    def run(self, job) -> None:
-        self._job = job
-        self._go.release()
-
-    def wait(self) -> None:
-        self._done.acquire()
-        if self._error is not None:
-            error, self._error = self._error, None
-            raise error
-
-    def close(self) -> None:
-        if self._closed:
-            return
-        self._closed = True
-        self._go.release()  # with no job: the loop ends
-        self._thread.join()
-        _PeriodThread._open -= 1
-        if _PeriodThread._open == 0:
-            sys.setswitchinterval(_PeriodThread._saved_interval)
