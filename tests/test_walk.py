@@ -81,7 +81,10 @@ def test_arm_swing_starts_smoothly_and_stays_in_limits(talos):
 
 
 def test_preparing_while_the_robot_moves_changes_no_command(talos):
-    """prepare() between write and read (as run_walk does) gives the commands of step() alone."""
+    """prepare() between write and read (as run_walk does) gives the commands of step() alone, and
+    the feedforward prepare computes at the extrapolated configuration stays within 0.5 N·m of the
+    quasi-static torques at the configuration the IK then reaches."""
+    from robot_ctrl.control.static_feedforward import static_torques
     from robot_ctrl.control.walking_controller import WalkingController
     from robot_ctrl.hw.mujoco_backend import MujocoBackend
 
@@ -92,7 +95,7 @@ def test_preparing_while_the_robot_moves_changes_no_command(talos):
     prepared, plain = WalkingController(talos, state), WalkingController(talos, state)
     for c in (prepared, plain):
         c.wpg.set_velocity(0.2, 0.0, 0.0)
-    single = 0
+    single, gap, data = 0, 0.0, talos.pin.createData()
     for _ in range(300):  # 1.5 s: into the first steps
         command = prepared.step(state)
         hw.write(command)
@@ -100,7 +103,12 @@ def test_preparing_while_the_robot_moves_changes_no_command(talos):
         expected = plain.step(state)
         for field in ("q", "dq", "tau_ff"):
             np.testing.assert_array_equal(getattr(command, field), getattr(expected, field))
+        ref = plain.reference
+        exact, _ = static_torques(talos.pin, data, plain.ik.q, *plain.contact_split(ref),
+                                  np.array([*ref.com_acceleration, 0.0]))
+        gap = max(gap, np.abs(exact[talos.v_index] - command.tau_ff).max())
         state = hw.read()
         single += prepared.reference.phase == "single"
     hw.close()
     assert single > 20  # it stepped
+    assert 0.0 < gap < 0.5

