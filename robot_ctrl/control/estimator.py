@@ -6,6 +6,7 @@ encoders with Pinocchio, and the feet's force/torque readings. All outputs in th
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -13,7 +14,6 @@ import pinocchio as pin
 
 from robot_ctrl.hw.types import JointState
 from robot_ctrl.robot.model import RobotModel, configuration
-from robot_ctrl.wpg.footstep import yaw_of
 from robot_ctrl.wpg.support_polygon import SupportPolygon
 
 SIDES = ("left", "right")
@@ -39,6 +39,7 @@ class StateEstimator:
         self.robot = robot
         self.data = robot.pin.createData()
         self.threshold = contact_threshold * robot.mass * 9.81
+        self._sole_frames = {s: robot.frame_ids[f"{s}_foot"] for s in SIDES}
 
     def estimate(self, state: JointState) -> Estimate:
         r = self.robot
@@ -52,30 +53,43 @@ class StateEstimator:
         pin.updateFramePlacements(r.pin, self.data)
         com = pin.centerOfMass(r.pin, self.data, pin.KinematicLevel.VELOCITY, False)  # reuses the kinematics above
         com_velocity = self.data.vcom[0].copy()
-        soles = {s: self.data.oMf[r.frame_ids[f"{s}_foot"]].copy() for s in SIDES}
+        soles = {s: self.data.oMf[self._sole_frames[s]].copy() for s in SIDES}
         wrench = state.foot_wrench or {}
-        contact = {s: s in wrench and wrench[s][2] > self.threshold for s in SIDES}
-        zmp = measured_zmp({s: (soles[s], wrench[s]) for s in SIDES if contact[s]})
-        down = [s for s in SIDES if contact[s]]
+        down = [s for s in SIDES if s in wrench and wrench[s][2] > self.threshold]
+        zmp = measured_zmp([(soles[s], wrench[s]) for s in down])
         support = None
         if down:
             foot = r.config.foot
-            support = SupportPolygon.of_soles(
-                [(soles[s].act(np.array([*foot.center_offset, 0.0]))[:2], yaw_of(soles[s].rotation)) for s in down],
-                foot.length, foot.width)
-        return Estimate(com.copy(), com_velocity, soles, contact, zmp, support)
+            support = SupportPolygon.of_soles([_sole_centre(soles[s], foot.center_offset) for s in down],
+                                              foot.length, foot.width)
+        return Estimate(com.copy(), com_velocity, soles, {s: s in down for s in SIDES}, zmp, support)
 
 
-def measured_zmp(contacts: dict[str, tuple[pin.SE3, np.ndarray]]) -> np.ndarray | None:
-    """ZMP on the floor plane z = 0 from sole-frame contact wrenches.
+def _sole_centre(pose: pin.SE3, offset) -> tuple[tuple[float, float], float]:
+    """Floor position of the sole rectangle's centre (``offset`` (2,) in the sole frame) and the
+    sole's heading [rad]."""
+    (r00, r01, _), (r10, r11, _), _ = pose.rotation.tolist()
+    x, y, _ = pose.translation.tolist()
+    ox, oy = offset
+    return (x + r00 * ox + r01 * oy, y + r10 * ox + r11 * oy), math.atan2(r10, r00)
 
-    Each wrench ``[f, m]`` (sole frame, about the sole origin) is moved to the world origin; with
-    total force F and moment M there, the ZMP on z = 0 is ``(−M_y / F_z, M_x / F_z)``.
+
+def measured_zmp(contacts: list[tuple[pin.SE3, np.ndarray]]) -> np.ndarray | None:
+    """ZMP on the floor plane z = 0 from sole-frame contact wrenches ``(pose, [f, m])``.
+
+    Each wrench (sole frame, about the sole origin p) is moved to the world origin, ``F = R f``,
+    ``M = R m + p × F``; with their sums, the ZMP on z = 0 is ``(−M_y / F_z, M_x / F_z)``.
+    Plain floats: numpy and Pinocchio calls cost more than the arithmetic here.
     """
-    if not contacts:
+    fz = mx = my = 0.0
+    for pose, w in contacts:
+        R = pose.rotation.tolist()
+        px, py, pz = pose.translation.tolist()
+        f0, f1, f2, m0, m1, m2 = w.tolist()
+        Fx, Fy, Fz = (row[0] * f0 + row[1] * f1 + row[2] * f2 for row in R)
+        fz += Fz
+        mx += R[0][0] * m0 + R[0][1] * m1 + R[0][2] * m2 + py * Fz - pz * Fy
+        my += R[1][0] * m0 + R[1][1] * m1 + R[1][2] * m2 + pz * Fx - px * Fz
+    if fz <= 1e-6:
         return None
-    world = sum((pose.act(pin.Force(w)) for pose, w in contacts.values()), pin.Force.Zero())  # about the origin
-    force, moment = world.linear, world.angular
-    if force[2] <= 1e-6:
-        return None
-    return np.array([-moment[1] / force[2], moment[0] / force[2]])
+    return np.array([-my / fz, mx / fz])

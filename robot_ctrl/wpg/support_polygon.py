@@ -2,42 +2,48 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
 
-from robot_ctrl.wpg.footstep import rotation
+
+def sole_corners(center, yaw: float, length: float, width: float) -> list[tuple[float, float]]:
+    """The four corners of a sole rectangle centred at ``center`` (2,) with heading ``yaw``,
+    counter-clockwise from the front left. Plain floats: numpy costs more than the arithmetic
+    on arrays this small (the estimator builds a polygon every tick, the MPC one per sample)."""
+    cx, cy = float(center[0]), float(center[1])
+    c, s = math.cos(yaw), math.sin(yaw)
+    hl, hw = 0.5 * length, 0.5 * width
+    return [(cx + c * x - s * y, cy + s * x + c * y) for x, y in ((hl, hw), (-hl, hw), (-hl, -hw), (hl, -hw))]
 
 
-_CLOCKWISE = np.array([[0.0, -1.0], [1.0, 0.0]])  # row vector (x, y) @ it = (y, −x)
-_HALF_SOLE = np.array([[1, 1], [-1, 1], [-1, -1], [1, -1]], dtype=float)
+#: Turns smaller than this (cross product of the two edges, m²) count as straight: with edges of
+#: sole size (0.1 m and more), a vertex within about 1e-11 m of its neighbours' line, or of a
+#: neighbour, is dropped, so that no edge is too short for its normal to be computed.
+COLLINEAR = 1e-12
 
 
-def sole_corners(center: np.ndarray, yaw: float, length: float, width: float) -> np.ndarray:
-    """The four corners (4×2) of a sole rectangle centred at ``center`` with heading ``yaw``."""
-    return center + (_HALF_SOLE * (0.5 * length, 0.5 * width)) @ rotation(yaw).T
-
-
-def convex_hull(points: np.ndarray) -> np.ndarray:
+def convex_hull(points: list[tuple[float, float]]) -> list[tuple[float, float]]:
     """Counter-clockwise convex hull of 2D points (Andrew's monotone chain)."""
-    pts = sorted(map(tuple, np.round(points, 12).tolist()))  # Python floats: fast in the loops below
+    pts = sorted(points)
     if len(pts) <= 2:
-        return np.array(pts)
+        return pts
 
     def cross(o, a, b):
         return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
 
     lower, upper = [], []
     for p in pts:
-        while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= 0:
+        while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= COLLINEAR:
             lower.pop()
         lower.append(p)
     for p in reversed(pts):
-        while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= 0:
+        while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= COLLINEAR:
             upper.pop()
         upper.append(p)
-    return np.array(lower[:-1] + upper[:-1])
+    return lower[:-1] + upper[:-1]
 
 
 @dataclass(frozen=True)
@@ -50,18 +56,20 @@ class SupportPolygon:
     def of_soles(cls, soles: list[tuple[np.ndarray, float]], length: float, width: float) -> "SupportPolygon":
         """Convex hull of sole rectangles given as (centre (2,), yaw)."""
         if len(soles) == 1:  # a rectangle's corners are already in counter-clockwise order
-            return cls(sole_corners(soles[0][0], soles[0][1], length, width))
-        return cls(convex_hull(np.vstack([sole_corners(c, yaw, length, width) for c, yaw in soles])))
+            return cls(np.array(sole_corners(soles[0][0], soles[0][1], length, width)))
+        return cls(np.array(convex_hull([p for c, yaw in soles for p in sole_corners(c, yaw, length, width)])))
 
     @cached_property
     def halfplanes(self) -> tuple[np.ndarray, np.ndarray]:
-        v = self.vertices
-        edges = np.empty_like(v)
-        edges[:-1] = v[1:] - v[:-1]
-        edges[-1] = v[0] - v[-1]
-        normals = edges @ _CLOCKWISE  # (dy, −dx): outward for CCW order
-        normals /= np.sqrt((normals * normals).sum(axis=1))[:, None]
-        return normals, (normals * v).sum(axis=1)
+        v = self.vertices.tolist()
+        normals, offsets = [], []
+        for (ax, ay), (bx, by) in zip(v, v[1:] + v[:1]):
+            nx, ny = by - ay, ax - bx  # (dy, −dx) of the edge: outward for CCW order
+            norm = math.sqrt(nx * nx + ny * ny)
+            nx, ny = nx / norm, ny / norm
+            normals.append((nx, ny))
+            offsets.append(nx * ax + ny * ay)
+        return np.array(normals), np.array(offsets)
 
     def contains(self, p: np.ndarray, tol: float = 1e-9) -> bool:
         H, h = self.halfplanes
