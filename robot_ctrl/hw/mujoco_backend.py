@@ -54,7 +54,13 @@ class MujocoBackend(HardwareAdapter):
             self._sole_body[side] = body
             foot_weld[side] = self.m.body_weldid[body]
             self._foot_bodies[side] = robot_bodies[self.m.body_weldid[robot_bodies] == foot_weld[side]]
+        # Per foot, a row that sums its bodies' contact wrenches, and its sole body.
+        self._foot_sum = np.zeros((len(self._foot_bodies), self.m.nbody))
+        for row, bodies in zip(self._foot_sum, self._foot_bodies.values()):
+            row[bodies] = 1.0
+        self._sole_bodies = np.array([self._sole_body[side] for side in self._foot_bodies])
         self._root = int(self.m.body_rootid[self.map.base_body])
+        self._base_xyzw = self.map.base_qpos + np.array([4, 5, 6, 3])  # MuJoCo stores w first
         weld = self.m.body_weldid[self.m.geom_bodyid]
         self._geom_side = [next((side for side, foot in foot_weld.items() if w == foot), None) for w in weld]
         # Geoms of this robot outside its feet: their floor contacts are reported (falls).
@@ -76,6 +82,7 @@ class MujocoBackend(HardwareAdapter):
         self._servo_qpos_col = qpos_at + self.m.jnt_qposadr[joints]
         self._servo_qvel_col = qvel_at + self.m.jnt_dofadr[joints]
         self._gear = self.m.actuator_gear[self._acts, 0].copy()
+        self._joint_order = np.arange(self.nj)
 
     # Lifecycle hooks --------------------------------------------------------------------------
     def _on_configure(self) -> None:
@@ -117,7 +124,8 @@ class MujocoBackend(HardwareAdapter):
     def _write(self, cmd: JointCommand) -> None:
         self._apply_gains(cmd.kp, cmd.kd, cmd.dq, cmd.tau_ff)
         self.d.ctrl[self._acts] = cmd.q
-        self._servo = (cmd.kp, cmd.kd, cmd.kp * cmd.q + self.m.actuator_biasprm[self._acts, 0])
+        # In the servos' own length and velocity (gear × the joint's): the demand record's gains.
+        self._servo = (cmd.kp * self._gear, cmd.kd * self._gear, cmd.kp * cmd.q + self.m.actuator_biasprm[self._acts, 0])
         if self._owns_world:
             self.world.step()
 
@@ -129,15 +137,12 @@ class MujocoBackend(HardwareAdapter):
             return None
         kp, kd, constant = self._servo
         states = self.world.step_states
-        q = self._gear * states[:, self._servo_qpos_col]
-        dq = self._gear * states[:, self._servo_qvel_col]
-        demand = constant - kp * q - kd * dq
-        return demand[np.abs(demand).argmax(axis=0), np.arange(self.nj)]
+        demand = constant - kp * states[:, self._servo_qpos_col] - kd * states[:, self._servo_qvel_col]
+        return demand[np.abs(demand).argmax(axis=0), self._joint_order]
 
     def _read(self) -> JointState:
         m, d, mp = self.m, self.d, self.map
         b, v = mp.base_qpos, mp.base_dof
-        wxyz = d.qpos[b + 3 : b + 7]
         rot = d.xmat[mp.base_body].reshape(3, 3)
         q, dq = d.qpos[mp.qpos], d.qvel[mp.dof]  # index arrays: copies, not views of the simulation
         return JointState(
@@ -146,7 +151,7 @@ class MujocoBackend(HardwareAdapter):
             dq=dq,
             tau=d.actuator_force[self._acts].copy(),
             base_pos=d.qpos[b : b + 3].copy(),
-            base_quat_xyzw=np.array([wxyz[1], wxyz[2], wxyz[3], wxyz[0]]),
+            base_quat_xyzw=d.qpos[self._base_xyzw],
             base_linvel=d.qvel[v : v + 3].copy(),
             base_angvel=d.qvel[v + 3 : v + 6].copy(),  # MuJoCo's free-joint angular velocity is body-frame
             base_linacc=rot.T @ (d.qacc[v : v + 3] - m.opt.gravity),
@@ -158,25 +163,30 @@ class MujocoBackend(HardwareAdapter):
     # Contacts -----------------------------------------------------------------------------------
     def _foot_wrenches(self) -> dict[str, np.ndarray]:
         """Contact wrench on each foot (from the floor and anything else it touches), in the sole
-        frame about the sole origin, as a force/torque sensor at the sole reads it. MuJoCo's ``cfrc_ext`` holds each body's contact wrench
-        ``[torque, force]`` in world axes about the subtree CoM ``c`` of the robot's root; about the
-        sole origin ``p`` the torque is ``τ + (c − p) × f``."""
+        frame about the sole origin, as a force/torque sensor at the sole reads it. MuJoCo's
+        ``cfrc_ext`` holds each body's contact wrench ``[torque, force]`` in world axes about the
+        subtree CoM ``c`` of the robot's root; about the sole origin ``p`` the torque is
+        ``τ + (c − p) × f``, and ``Rᵀ`` (R the sole's orientation) turns both into the sole frame.
+        Plain floats: numpy's cost on 3-vectors is its calls, not the arithmetic."""
         d = self.d
-        c = d.subtree_com[self._root]
+        cx, cy, cz = d.subtree_com[self._root].tolist()
         out = {}
-        for side, bodies in self._foot_bodies.items():
-            w = d.cfrc_ext[bodies].sum(axis=0)
-            torque, f = w[:3], w[3:]
-            r = c - d.xpos[self._sole_body[side]]
-            # r × f written out: np.cross costs more than the rest of this function.
-            torque = torque + (r[1] * f[2] - r[2] * f[1], r[2] * f[0] - r[0] * f[2], r[0] * f[1] - r[1] * f[0])
-            rot = d.xmat[self._sole_body[side]].reshape(3, 3)
-            out[side] = np.concatenate([f @ rot, torque @ rot])
+        for side, (t0, t1, t2, f0, f1, f2), (px, py, pz), R in zip(
+                self._foot_bodies, (self._foot_sum @ d.cfrc_ext).tolist(), d.xpos[self._sole_bodies].tolist(),
+                d.xmat[self._sole_bodies].tolist()):
+            rx, ry, rz = cx - px, cy - py, cz - pz
+            t0, t1, t2 = t0 + ry * f2 - rz * f1, t1 + rz * f0 - rx * f2, t2 + rx * f1 - ry * f0
+            out[side] = np.array([f0 * R[0] + f1 * R[3] + f2 * R[6], f0 * R[1] + f1 * R[4] + f2 * R[7],
+                                  f0 * R[2] + f1 * R[5] + f2 * R[8], t0 * R[0] + t1 * R[3] + t2 * R[6],
+                                  t0 * R[1] + t1 * R[4] + t2 * R[7], t0 * R[2] + t1 * R[5] + t2 * R[8]])
         return out
 
     def _floor_contacts(self) -> tuple[str, ...]:
         geoms = self.d.contact.geom  # (ncon, 2)
-        touching = geoms[self._non_foot_geom[geoms].any(axis=1) & (geoms == self._floor).any(axis=1)]
+        others = self._non_foot_geom[geoms].any(axis=1)
+        if not others.any():  # the usual case: only the feet touch anything
+            return ()
+        touching = geoms[others & (geoms == self._floor).any(axis=1)]
         if not touching.size:
             return ()
         bodies = {int(self.m.geom_bodyid[g]) for g in touching.ravel() if self._non_foot_geom[g]}
