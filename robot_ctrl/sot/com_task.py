@@ -29,5 +29,9 @@ class ComTask(Task):
         J[:, self.locked_dofs] = 0.0
         return (self.target - data.com[0])[self.axes], J[self.axes]
 
+    def error(self, model, data, q):
+        # The CoM that error_and_jacobian left in data.com[0]: it does not depend on the target.
+        return (self.target - data.com[0])[self.axes]
+
     def feedforward(self):
         return self.target_velocity[self.axes]

@@ -30,8 +30,20 @@ class Task(ABC):
     def feedforward(self) -> np.ndarray | float:
         return 0.0
 
+    def error(self, model: pin.Model, data: pin.Data, q: np.ndarray) -> np.ndarray:
+        """The error alone, at the configuration of the last :meth:`rows` (a task whose Jacobian
+        does not depend on its target may skip recomputing it)."""
+        return self.error_and_jacobian(model, data, q)[0]
+
     def rows(self, model: pin.Model, data: pin.Data, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Weighted least-squares rows ``(A, b)`` with ``A v ≈ b``."""
         e, J = self.error_and_jacobian(model, data, q)
+        return (J if self.weight == 1.0 else self.weight * J), self._weighted_rhs(e)
+
+    def rhs(self, model: pin.Model, data: pin.Data, q: np.ndarray) -> np.ndarray:
+        """``b`` of :meth:`rows` for the current target, at the configuration of the last ``rows``."""
+        return self._weighted_rhs(self.error(model, data, q))
+
+    def _weighted_rhs(self, e: np.ndarray) -> np.ndarray:
         b = self.gain * e + self.feedforward()
-        return (J, b) if self.weight == 1.0 else (self.weight * J, self.weight * b)
+        return b if self.weight == 1.0 else self.weight * b
