@@ -112,7 +112,7 @@ class WalkingController:
         ik.posture.set_target(self.upper_body(t))
         waist_yaw = np.arctan2(sum(np.sin(ref.foot_yaw[s]) for s in SIDES), sum(np.cos(ref.foot_yaw[s]) for s in SIDES))
         ik.waist.set_target(pin.SE3(pin.utils.rpyToMatrix(0.0, 0.0, waist_yaw), np.zeros(3)))
-        ik.prepare(self.dt)
+        ik.prepare(self.dt, retargetable=(ik.com,))  # the stabilizer moves the CoM target in step
         frames, shares = self.contact_split(ref)
         q_ahead = pin.integrate(self.robot.pin, ik.q, self._v * self.dt)
         tau_ff, _ = static_torques(self.robot.pin, self._statics, q_ahead, frames, shares,

@@ -33,9 +33,10 @@ A solve is :meth:`~HierarchicalQP.prepare` (bounds, kinematics, every task's row
 factorized: all that depends on ``q``) then :meth:`~HierarchicalQP.finish`, which may first
 re-read the right-hand sides of tasks whose targets were set in between. A controller prepares
 while the robot moves and finishes once the measured state has given it its last targets. For
-that, prepare also solves the KKT system for the prepared targets and for a unit change of each
-higher-level row, ``[v; −λ] = x₀ + Z δf``: a finish whose new targets only change ``f`` by ``δf``
-costs a small product instead of a solve (equal to the direct solve up to rounding).
+that, prepare also solves the KKT system for the prepared targets and, for the higher-level tasks
+named ``retargetable``, for a unit change of each of their rows: ``v = v₀ + Z δf``, so a finish
+whose new targets only change those rows of ``f`` by ``δf`` costs a small product instead of a
+solve (equal to the direct solve up to rounding).
 """
 
 from __future__ import annotations
@@ -98,14 +99,13 @@ class _Prepared:
 
 @dataclass
 class _FastPath:
-    """The fast path's KKT system solved at prepare: ``v = v0 + Z δf`` for a change ``δf`` of the
-    stacked higher levels' right-hand side ``f`` (rows of level k start at ``offsets[k]``)."""
+    """The fast path's KKT system solved at prepare: ``v = v0 + Z[task] δf`` for a change ``δf`` of
+    a retargetable task's rows of the stacked higher levels' right-hand side ``f``."""
 
     E: np.ndarray  # (m, nv) stacked higher levels
     f: np.ndarray  # (m,)
     v0: np.ndarray  # (nv,)
-    Z: np.ndarray  # (nv, m)
-    offsets: list[int]
+    Z: dict[Task, tuple[slice, np.ndarray]]  # the task's rows in f, and their (nv, rows) block
     lu: tuple[np.ndarray, np.ndarray]  # LU factors and pivots of the KKT matrix
 
 
@@ -124,10 +124,12 @@ class HierarchicalQP:
         self.prepare(model, data, q, dt)
         return self.finish()
 
-    def prepare(self, model: pin.Model, data: pin.Data, q: np.ndarray, dt: float) -> None:
+    def prepare(self, model: pin.Model, data: pin.Data, q: np.ndarray, dt: float,
+                retargetable: tuple[Task, ...] = ()) -> None:
         """First half of :meth:`solve`: the bounds, the kinematics at ``q`` (in ``data``, which must
         not be recomputed at another configuration before :meth:`finish`), each active task's rows
-        for its current target and the fast path's KKT matrix, factorized."""
+        for its current target and the fast path's KKT matrix, factorized and solved, also for
+        changes of the ``retargetable`` tasks' targets (module docstring)."""
         self._prepared = None
         if not np.all(np.isfinite(q)):
             raise InfeasibleError(0, "configuration contains NaN or inf")
@@ -147,7 +149,8 @@ class HierarchicalQP:
                 start += len(b)
             stacked.append(_stack(rows))
         self.last = [LevelResult([t.name for t in tasks], False, A, b) for tasks, (A, b) in zip(levels, stacked)]
-        self._prepared = _Prepared(model, data, q, lo, hi, levels, stacked, spans, self._fast_path(stacked))
+        fast = self._fast_path(stacked, spans, retargetable)
+        self._prepared = _Prepared(model, data, q, lo, hi, levels, stacked, spans, fast)
 
     def finish(self, retargeted: tuple[Task, ...] = ()) -> np.ndarray:
         """Second half of :meth:`solve`, after ``retargeted`` tasks (active ones of the prepared
@@ -166,14 +169,13 @@ class HierarchicalQP:
             b = stacked[k][1].copy()
             b[rows] = task.rhs(p.model, p.data, p.q)
             if v is not None:
-                if k == len(stacked) - 1:
-                    v = None  # the last level's b enters the KKT system through Aᵀb: solve again
-                else:
-                    at = slice(fast.offsets[k] + rows.start, fast.offsets[k] + rows.stop)
-                    delta = b[rows] - stacked[k][1][rows]
-                    v = v + fast.Z[:, at] @ delta
+                if task in fast.Z:
+                    at, Z = fast.Z[task]
+                    v = v + Z @ (b[rows] - stacked[k][1][rows])
                     f = f.copy()
                     f[at] = b[rows]
+                else:
+                    v = None  # not prepared for: solve the KKT system again
             stacked[k] = (stacked[k][0], b)
             self.last[k].b = b
         lo, hi, bounded = p.lo, p.hi, self.limits.v_index
@@ -209,10 +211,10 @@ class HierarchicalQP:
         v[bounded] = np.clip(v[bounded], lo, hi)
         return v
 
-    def _fast_path(self, stacked) -> _FastPath | None:
+    def _fast_path(self, stacked, spans, retargetable) -> _FastPath | None:
         """The fast path's KKT matrix (module docstring) factorized and solved for the prepared
-        targets and for unit changes of ``f``; None when the stack has one level or the matrix is
-        singular."""
+        targets and for unit changes of the ``retargetable`` tasks' rows of ``f``; None when the
+        stack has one level or the matrix is singular."""
         if len(stacked) < 2:
             return None
         E = np.vstack([A for A, _ in stacked[:-1]])
@@ -227,15 +229,25 @@ class HierarchicalQP:
         lu, piv, info = _getrf(K)
         if info != 0:
             return None
-        rhs = np.zeros((n + m, 1 + m))
+        blocks = {}  # task -> its rows in f
+        for task in retargetable:
+            k, rows = spans.get(task, (len(stacked) - 1, None))
+            if k < len(stacked) - 1:
+                start = sum(len(b) for _, b in stacked[:k])
+                blocks[task] = slice(start + rows.start, start + rows.stop)
+        rhs = np.zeros((n + m, 1 + sum(at.stop - at.start for at in blocks.values())))
         rhs[:n, 0] = A.T @ b
         rhs[n:, 0] = f
-        rhs[n:, 1:] = np.eye(m)
+        column, Z = 1, {}
+        for task, at in blocks.items():
+            for row in range(at.start, at.stop):
+                rhs[n + row, column + row - at.start] = 1.0
+            Z[task] = (at, slice(column, column + at.stop - at.start))
+            column = Z[task][1].stop
         x, info = _getrs(lu, piv, rhs)
         if info != 0:
             return None
-        offsets = np.cumsum([0] + [len(b) for _, b in stacked[:-2]]).tolist()
-        return _FastPath(E, f, x[:n, 0], x[:n, 1:], offsets, (lu, piv))
+        return _FastPath(E, f, x[:n, 0], {task: (at, x[:n, cols]) for task, (at, cols) in Z.items()}, (lu, piv))
 
     @staticmethod
     def _meets_higher_levels(v, E, f, lo, hi, bounded) -> bool:

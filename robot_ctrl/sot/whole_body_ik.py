@@ -50,7 +50,7 @@ class WholeBodyIK:
         near = (joints > robot.lower - START_TOLERANCE) & (joints < robot.upper + START_TOLERANCE)
         self.q[robot.q_index] = np.where(near, np.clip(joints, robot.lower, robot.upper), joints)
         self._stale = True
-        self._prepared: tuple[np.ndarray, float] | None = None  # (q it was prepared at, dt)
+        self._prepared: tuple | None = None  # (q it was prepared at, dt, retargetable tasks)
         ids = robot.frame_ids
         self.feet = {s: FrameTask(f"{s}_foot", ids[f"{s}_foot"], gain=gain) for s in SIDES}
         self.com = ComTask(gain=gain, locked_dofs=hand_tool_dofs(robot))
@@ -98,20 +98,21 @@ class WholeBodyIK:
         self.prepare(dt)
         return self.finish()
 
-    def prepare(self, dt: float) -> None:
+    def prepare(self, dt: float, retargetable: tuple = ()) -> None:
         """First half of :meth:`step` (``HierarchicalQP.prepare``): all the solve needs from ``q``
-        and the targets set so far."""
-        self.solver.prepare(self.robot.pin, self.data, self.q, dt)
-        self._prepared = (self.q, dt)
+        and the targets set so far; ``retargetable`` tasks may get new targets before
+        :meth:`finish` at little cost."""
+        self.solver.prepare(self.robot.pin, self.data, self.q, dt, retargetable)
+        self._prepared = (self.q, dt, retargetable)
 
     def finish(self, retargeted: tuple = ()) -> np.ndarray:
         """Second half of :meth:`step`, after the ``retargeted`` tasks got new targets. Prepares
         again first if ``q`` was set since :meth:`prepare`."""
         if self._prepared is None:
             raise RuntimeError("WholeBodyIK.finish without prepare")
-        q, dt = self._prepared
+        q, dt, retargetable = self._prepared
         if q is not self.q:
-            self.prepare(dt)
+            self.prepare(dt, retargetable)
         self._prepared = None
         v = self.solver.finish(retargeted)
         self.q = pin.integrate(self.robot.pin, self.q, v * dt)
