@@ -9,8 +9,8 @@ __version__ = "0.1.0"
 
 # One BLAS thread. Every matrix of the control loop is small (the IK's 38 columns, the MPC's 36
 # variables): a second thread gains nothing, and OpenBLAS's waiting threads spin on the cores that
-# the simulated robot's process and the dynamic filter's worker need (README, "Speed": 2.4x instead
-# of 5x real time). Libraries loaded later read the variable; those already loaded are limited here.
+# the simulated robot's process and the dynamic filter's worker need (README, setup: 3.3x instead of
+# 5.8x real time). Libraries loaded later read the variable; those already loaded are limited here.
 # Set OPENBLAS_NUM_THREADS before importing robot_ctrl to choose another count.
 threadpool_limits(int(os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")), user_api="blas")
 
