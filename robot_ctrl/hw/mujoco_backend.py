@@ -43,7 +43,7 @@ class MujocoBackend(HardwareAdapter):
             raise ValueError(f"base_xy_yaw must be 3 finite numbers (x [m], y [m], yaw [rad]), got {base_xy_yaw}")
         self._floor = self.world.floor
         # A foot is every body welded to the link that carries the sole frame.
-        self._sole_body = {}
+        sole_bodies = []
         self._foot_bodies = {}
         robot_bodies = np.flatnonzero(
             np.array([self.m.body(i).name.startswith(prefix) for i in range(self.m.nbody)]))
@@ -51,14 +51,14 @@ class MujocoBackend(HardwareAdapter):
         foot_weld = {}
         for side, frame in robot.config.feet.items():
             body = self.m.body(prefix + frame).id
-            self._sole_body[side] = body
+            sole_bodies.append(body)
             foot_weld[side] = self.m.body_weldid[body]
             self._foot_bodies[side] = robot_bodies[self.m.body_weldid[robot_bodies] == foot_weld[side]]
         # Per foot, a row that sums its bodies' contact wrenches, and its sole body.
         self._foot_sum = np.zeros((len(self._foot_bodies), self.m.nbody))
         for row, bodies in zip(self._foot_sum, self._foot_bodies.values()):
             row[bodies] = 1.0
-        self._sole_bodies = np.array([self._sole_body[side] for side in self._foot_bodies])
+        self._sole_bodies = np.array(sole_bodies)
         self._root = int(self.m.body_rootid[self.map.base_body])
         self._base_xyzw = self.map.base_qpos + np.array([4, 5, 6, 3])  # MuJoCo stores w first
         weld = self.m.body_weldid[self.m.geom_bodyid]

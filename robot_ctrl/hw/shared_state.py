@@ -1,9 +1,10 @@
 """JointCommand and JointState in shared memory, for a backend that runs in another process.
 
 Each lives in one float64 buffer with a fixed layout, so a tick's exchange is a few array copies
-and no serialization. The state's layout has a slot for every array field of ``JointState`` and
-a presence flag for each (a ``foot_wrench`` without sides comes back as None); ``floor_contacts`` (names, of varying number) is not in
-the buffer and travels with the message that announces the state.
+and no serialization. The state's layout has a slot for every array field of ``JointState`` (one
+per foot for ``foot_wrench``) and a presence flag for each; a ``foot_wrench`` without sides comes
+back as None. ``floor_contacts`` (names, of varying number) is not in the buffer: it travels as
+the reply to the call that produced the state.
 """
 
 from __future__ import annotations
@@ -47,10 +48,12 @@ class SharedCommand(_Shared):
         return JointCommand(*self.array.reshape(5, self.nj).copy())
 
 
-def _state_slots(nj: int) -> dict[str, int]:
-    """Field (``foot_wrench.<side>`` per foot) → length, in buffer order, after the time."""
-    return {"q": nj, "dq": nj, "tau": nj, "base_pos": 3, "base_quat_xyzw": 4, "base_linvel": 3, "base_angvel": 3,
-            "base_linacc": 3, **{f"foot_wrench.{side}": 6 for side in SIDES}, "tau_demand": nj, "temperature": nj}
+def _state_slots(nj: int) -> dict[tuple[str, str | None], int]:
+    """(field, foot side or None) → length, in buffer order, after the time."""
+    arrays = {"q": nj, "dq": nj, "tau": nj, "base_pos": 3, "base_quat_xyzw": 4, "base_linvel": 3, "base_angvel": 3,
+              "base_linacc": 3}
+    return {**{(name, None): n for name, n in arrays.items()}, **{("foot_wrench", side): 6 for side in SIDES},
+            ("tau_demand", None): nj, ("temperature", None): nj}
 
 
 class SharedState(_Shared):
@@ -59,11 +62,10 @@ class SharedState(_Shared):
     def __init__(self, nj: int, raw):
         super().__init__(nj, raw)
         slots = _state_slots(nj)
-        self._names = list(slots)
         start = 1 + len(slots)
-        self._views = {}
-        for name, length in slots.items():
-            self._views[name] = self.array[start:start + length]
+        self._slots = []  # (field, side, view)
+        for (field, side), length in slots.items():
+            self._slots.append((field, side, self.array[start:start + length]))
             start += length
         self._present = self.array[1:1 + len(slots)]
 
@@ -78,16 +80,19 @@ class SharedState(_Shared):
         if not set(wrench) <= set(SIDES):
             raise ValueError(f"JointState.foot_wrench sides {sorted(wrench)} must be among {SIDES}")
         self.array[0] = state.t
-        for i, name in enumerate(self._names):
-            value = wrench.get(name[12:]) if name.startswith("foot_wrench.") else getattr(state, name)
+        for i, (field, side, view) in enumerate(self._slots):
+            value = getattr(state, field) if side is None else wrench.get(side)
             self._present[i] = value is not None
             if value is not None:
-                self._views[name][:] = value
+                view[:] = value
 
     def get(self, floor_contacts: tuple[str, ...] = ()) -> JointState:
-        fields = {name: self._views[name].copy() if present else None
-                  for name, present in zip(self._names, self._present.tolist())}
-        wrench = {side: fields.pop(f"foot_wrench.{side}") for side in SIDES}
-        wrench = {side: w for side, w in wrench.items() if w is not None}
-        return JointState(t=float(self.array[0]), foot_wrench=wrench if wrench else None,
-                          floor_contacts=floor_contacts, **fields)
+        fields, wrench = {}, {}
+        for (field, side, view), present in zip(self._slots, self._present.tolist()):
+            value = view.copy() if present else None
+            if side is None:
+                fields[field] = value
+            elif value is not None:
+                wrench[side] = value
+        return JointState(t=float(self.array[0]), foot_wrench=wrench or None, floor_contacts=floor_contacts,
+                          **fields)
