@@ -1,6 +1,7 @@
 # Two entry points (see README): `make demo` and `make test`. Both create .venv on first use.
-# `make bench` runs the benchmarks in their own .venv-bench: the peers they compare against
-# (mink, placo) pin other versions of our dependencies (placo requires pin == 3.8.0).
+# `make bench` runs the benchmarks in their own .venv-bench (the peers they compare against, mink
+# and placo, pin other versions of our dependencies: placo requires pin == 3.8.0) and writes
+# benchmarks/RESULTS.md.
 PYTHON ?= python3.11
 VENV   := .venv
 BIN    := $(VENV)/bin
@@ -29,12 +30,7 @@ test: $(STAMP)
 	$(BIN)/python -m pytest -q
 
 bench: $(BENCH_STAMP)
-	$(BENCH_VENV)/bin/python benchmarks/bench_sot.py
-	$(BENCH_VENV)/bin/python benchmarks/bench_wpg.py
-	$(BENCH_VENV)/bin/python benchmarks/bench_loop.py
-	$(BENCH_VENV)/bin/python benchmarks/bench_crowd.py
-	$(BENCH_VENV)/bin/python benchmarks/bench_dynfilter.py
-	$(BENCH_VENV)/bin/python benchmarks/bench_synthesis.py
+	$(BENCH_VENV)/bin/python benchmarks/run_all.py
 
 clean:
 	rm -rf $(VENV) $(BENCH_VENV) runs

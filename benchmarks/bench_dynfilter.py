@@ -19,8 +19,9 @@ import numpy as np
 from robot_ctrl.control.path_follower import WalkGoal
 from robot_ctrl.dynfilter import dynamic_filter as df
 from robot_ctrl.hw.hardware import open_hardware
+from robot_ctrl.modes import ArmMotion, FilterMode
 from robot_ctrl.robot import load_robot
-from robot_ctrl.scenarios.walk import run_walk
+from robot_ctrl.scenarios.walk import WalkSettings, run_walk
 
 
 def main() -> None:
@@ -42,9 +43,9 @@ def main() -> None:
     try:
         for name, (mode, worker) in runs.items():
             with open_hardware("mujoco", robot) as hw:
-                results[name] = run_walk(robot, hw, WalkGoal(distance=2.0, speed=0.25), log=lambda _: None,
-                                         arms="swing", dynfilter=mode, dynfilter_passes=args.passes,
-                                         dynfilter_worker=worker)
+                settings = WalkSettings(arms=ArmMotion.SWING, dynfilter=FilterMode(mode),
+                                        dynfilter_passes=args.passes, dynfilter_worker=worker)
+                results[name] = run_walk(robot, hw, WalkGoal(distance=2.0, speed=0.25), settings, log=lambda _: None)
     finally:
         df.DynamicFilter.refine = original
     per_pass = np.array([t / n for t, n in samples]) * 1e3

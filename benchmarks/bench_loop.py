@@ -23,6 +23,7 @@ from robot_ctrl.control import walking_controller as wc
 from robot_ctrl.control.path_follower import WalkGoal
 from robot_ctrl.hw.mujoco_backend import MujocoBackend
 from robot_ctrl.hw.robot_process import RobotProcess
+from robot_ctrl.hw.safety import SafetyLayer, SafetyLimits
 from robot_ctrl.hw.types import JointCommand
 from robot_ctrl.robot import load_robot
 from robot_ctrl.scenarios.walk import run_walk
@@ -63,9 +64,11 @@ def physics_only_rtf(robot, hw, seconds: float = 5.0) -> float:
 def main() -> None:
     robot = load_robot("talos")
     timer = StageTimer()
-    hw = RobotProcess(functools.partial(MujocoBackend, robot), robot.nj)
-    hw.write = timer.wrap("write (command handed to the robot)", hw.write)
-    hw.read = timer.wrap("read (waits for the robot's period)", hw.read)
+    robot_process = RobotProcess(functools.partial(MujocoBackend, robot), robot.nj)
+    robot_process.write = timer.wrap("write (command handed to the robot)", robot_process.write)
+    robot_process.read = timer.wrap("read (waits for the robot's period)", robot_process.read)
+    hw = SafetyLayer(robot_process, SafetyLimits.for_simulation(robot), clock=None)  # as open_hardware("mujoco")
+    hw.write = timer.wrap("safety layer write (checks, then the write above)", hw.write)
     original = wc.WalkingController.__init__
 
     def instrumented(self, *args, **kwargs):
@@ -82,6 +85,7 @@ def main() -> None:
         report = run_walk(robot, hw, WalkGoal(distance=2.0, speed=0.25), log=lambda _: None)
     finally:
         wc.WalkingController.__init__ = original
+        hw.close()
     print(f"full loop, 2 m walk, {report['time_s']:.1f} s simulated: real-time factor {report['rtf']:.2f}x "
           f"(target >= 10x), fell: {report['fell']}")
     for name, samples in timer.samples.items():

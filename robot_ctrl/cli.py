@@ -7,48 +7,82 @@ import os
 import sys
 from pathlib import Path
 
+from robot_ctrl.modes import ArmMotion, FilterMode, HardwareKind
 from robot_ctrl.robot.config import ConfigError, available_robots
 
 
-def _check_viewer(args: argparse.Namespace) -> None:
+def _log(line: str) -> None:
+    """Print a line without tearing the progress bar."""
+    from tqdm import tqdm
+
+    tqdm.write(line)
+
+
+def _check_outputs(args: argparse.Namespace) -> None:
+    """Refuse a viewer without a display and a video without an offscreen renderer, before anything runs."""
     if args.viewer and sys.platform.startswith("linux") and not (os.environ.get("DISPLAY") or
                                                                  os.environ.get("WAYLAND_DISPLAY")):
         raise ConfigError("--viewer needs a display, and neither DISPLAY nor WAYLAND_DISPLAY is set "
                           "(run without --viewer, or under a desktop or xvfb-run)")
+    if args.video is not None:
+        if args.video.suffix.lower() != ".mp4":
+            raise ConfigError(f"--video {args.video}: the file must end in .mp4")
+        from robot_ctrl.hw.mujoco_video import check_renderer
+
+        try:
+            check_renderer()
+        except RuntimeError as exc:
+            raise ConfigError(str(exc)) from exc
+
+
+def _simulation(args: argparse.Namespace):
+    """The robot and its hardware for a single-robot MuJoCo scenario."""
+    from robot_ctrl.hw.hardware import open_hardware
+    from robot_ctrl.robot.model import load_robot
+
+    _check_outputs(args)
+    robot = load_robot(args.robot)
+    try:
+        return robot, open_hardware(args.hw, robot, args.bus_config, viewer=args.viewer, video=args.video)
+    except (FileNotFoundError, ValueError) as exc:
+        raise ConfigError(f"--hw {args.hw}: {exc}") from exc
+
+
+def _finish(args: argparse.Namespace, report: dict) -> int:
+    if args.video is not None:
+        _log(f"wrote {args.video}")
+    return 1 if report["fell"] else 0
 
 
 def _balance(args: argparse.Namespace) -> int:
-    from robot_ctrl.hw.hardware import open_hardware
-    from robot_ctrl.robot.model import load_robot
     from robot_ctrl.scenarios.balance import run_balance
 
-    _check_viewer(args)
-    robot = load_robot(args.robot)
-    with open_hardware(args.hw, robot, args.bus_config, viewer=args.viewer) as hw:
-        report = run_balance(robot, hw, out_dir=args.out)
-    return 1 if report["fell"] else 0
+    robot, hardware = _simulation(args)
+    with hardware as hw:
+        report = run_balance(robot, hw, out_dir=args.out, log=_log, progress=not args.quiet)
+    return _finish(args, report)
 
 
 def _walk(args: argparse.Namespace) -> int:
     import math
 
     from robot_ctrl.control.path_follower import WalkGoal
-    from robot_ctrl.hw.hardware import open_hardware
-    from robot_ctrl.robot.model import load_robot
-    from robot_ctrl.scenarios.walk import run_walk
+    from robot_ctrl.scenarios.walk import WalkSettings, run_walk
 
     try:
         goal = WalkGoal(distance=args.distance, turn=math.radians(args.turn_deg), lateral=args.lateral,
                         speed=args.speed)
     except ValueError as exc:
         raise ConfigError(f"walk: {exc}".replace("turn = ", "--turn-deg (in rad) = ")) from exc
-    _check_viewer(args)
-    robot = load_robot(args.robot)
-    with open_hardware("mujoco", robot, viewer=args.viewer) as hw:
-        report = run_walk(robot, hw, goal, stabilize=not args.no_stabilizer, out_dir=args.out, arms=args.arms,
-                          dynfilter=args.dynfilter, dynfilter_passes=args.dynfilter_passes,
-                          dynfilter_worker=not args.dynfilter_inline)
-    return 1 if report["fell"] else 0
+    if not 1 <= args.dynfilter_passes <= 10:
+        raise ConfigError(f"walk: --dynfilter-passes {args.dynfilter_passes} is outside the allowed range [1, 10]")
+    settings = WalkSettings(stabilize=not args.no_stabilizer, arms=ArmMotion(args.arms),
+                            dynfilter=FilterMode(args.dynfilter), dynfilter_passes=args.dynfilter_passes,
+                            dynfilter_worker=not args.dynfilter_inline)
+    robot, hardware = _simulation(args)
+    with hardware as hw:
+        report = run_walk(robot, hw, goal, settings, out_dir=args.out, log=_log, progress=not args.quiet)
+    return _finish(args, report)
 
 
 def _synth_primitives(args: argparse.Namespace):
@@ -160,6 +194,7 @@ def _crowd_certify(args: argparse.Namespace) -> int:
 def _crowd_run(args: argparse.Namespace) -> int:
     import numpy as np
 
+    from robot_ctrl.crowd.certificates import refuse_violated
     from robot_ctrl.crowd.experiments import run_group
     from robot_ctrl.crowd.gait_coupling import GaitCoupling
     from robot_ctrl.crowd.gait_profile import GaitProfile
@@ -174,14 +209,9 @@ def _crowd_run(args: argparse.Namespace) -> int:
             raise ValueError(f"no measured gait profile for {args.profile!r}: run robot-ctrl crowd gait-profile "
                              f"--robot {args.profile}")
         conditions = coupling.certify(np.ones(1) if profile is None else profile.g, omega, phases="hopf")
+        refuse_violated(conditions, args.allow_unstable)
     except ValueError as exc:
         raise ConfigError(f"crowd run: {exc}") from exc
-    violated = [c.name for c in conditions if not c.holds]
-    if violated and not args.allow_unstable:
-        raise ConfigError(f"crowd run: the contraction condition(s) {', '.join(violated)} are violated for this "
-                          "configuration; pass --allow-unstable to simulate it anyway")
-    if violated:
-        print(f"running an uncertified configuration ({', '.join(violated)} violated): convergence is not guaranteed")
     result = run_group(coupling, duration=args.duration, runs=args.runs, profile=profile, omega=omega)
     for c in result.conditions:
         print(c.line())
@@ -274,31 +304,35 @@ def _crowd_figure(args: argparse.Namespace) -> int:
 
 def _crowd_walk(args: argparse.Namespace) -> int:
     from robot_ctrl.robot.model import load_robot
-    from robot_ctrl.scenarios.group_walk import run_group_walk
+    from robot_ctrl.scenarios.group_walk import GroupWalk, run_group_walk
 
-    _check_viewer(args)
+    _check_outputs(args)
     robot = load_robot(args.robot)
     try:
-        report = run_group_walk(robot, n=args.robots, graph=args.graph, k=args.k, m_z=args.mz, m_psi=args.mpsi,
-                                speed=args.speed, spacing=args.spacing, coupled_time=args.coupled_time,
-                                seed=args.seed, allow_unstable=args.allow_unstable, out_dir=args.out,
-                                viewer=args.viewer)
+        group = GroupWalk(n=args.robots, graph=args.graph, k=args.k, m_z=args.mz, m_psi=args.mpsi, speed=args.speed,
+                          spacing=args.spacing, coupled_time=args.coupled_time, seed=args.seed,
+                          allow_unstable=args.allow_unstable)
+        report = run_group_walk(robot, group, args.hw, out_dir=args.out, viewer=args.viewer, video=args.video,
+                                log=_log, progress=not args.quiet)
     except ValueError as exc:
         raise ConfigError(f"crowd walk: {exc}") from exc
-    return 1 if report["fell"] else 0
+    return _finish(args, report)
 
 
 def _crowd_gait_profile(args: argparse.Namespace) -> int:
     from robot_ctrl.crowd.gait_profile import MODELS
-    from robot_ctrl.robot.model import load_robot
     from robot_ctrl.scenarios.gait_profile import measure_gait_profile
 
-    robot = load_robot(args.robot)
+    if not (0.05 <= args.speed <= 0.3) or not (2 <= args.cycles <= 50):
+        raise ConfigError(f"crowd gait-profile: --speed {args.speed} must be in [0.05, 0.3] m/s and --cycles "
+                          f"{args.cycles} in [2, 50]")
+    robot, hardware = _simulation(args)
     out = args.out or MODELS / f"{robot.name}_gait_profile.json"
-    try:
-        measure_gait_profile(robot, speed=args.speed, cycles=args.cycles, out=out)
-    except ValueError as exc:
-        raise ConfigError(f"crowd gait-profile: {exc}") from exc
+    with hardware as hw:
+        measure_gait_profile(robot, hw, speed=args.speed, cycles=args.cycles, out=out, log=_log,
+                             progress=not args.quiet)
+    if args.video is not None:
+        _log(f"wrote {args.video}")
     return 0
 
 
@@ -324,57 +358,69 @@ def _robots(args: argparse.Namespace) -> int:
     return 0
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="robot-ctrl", description=__doc__)
-    sub = parser.add_subparsers(dest="command", required=True)
+def _robot_parent() -> argparse.ArgumentParser:
+    parent = argparse.ArgumentParser(add_help=False)
+    parent.add_argument("--robot", default="talos", help=f"robot config name ({', '.join(available_robots())})")
+    return parent
 
-    p = sub.add_parser("balance", help="stand, shift weight, lift a foot, reach with the right hand (MuJoCo)",
-                       description="Balance demo in MuJoCo at 200 Hz control: half-sitting, CoM over the left foot, "
-                                   "right foot up 5 cm and back, CoM back, right-hand reach to (0.4, -0.2, 0.8) m in "
-                                   "the start floor frame and back. Exit status 1 if the robot fell.")
-    p.add_argument("--robot", default="talos", help=f"robot config name ({', '.join(available_robots())})")
-    p.add_argument("--hw", choices=("mujoco", "mit-can-emulated", "dynamixel-emulated"), default="mujoco",
-                   help="backend: MuJoCo, or MuJoCo behind an emulated MIT-CAN / Dynamixel bus with the safety layer")
-    p.add_argument("--bus-config", help="bus mapping (configs/hw name or YAML path) for the emulated buses")
-    p.add_argument("--viewer", action="store_true", help="open the MuJoCo viewer (needs a display)")
+
+def _simulation_parent(robot: argparse.ArgumentParser) -> argparse.ArgumentParser:
+    """Options of every MuJoCo scenario."""
+    parent = argparse.ArgumentParser(add_help=False, parents=[robot])
+    parent.add_argument("--hw", choices=[k.value for k in HardwareKind], default=HardwareKind.MUJOCO.value,
+                        help="backend, always behind the safety layer: MuJoCo, or MuJoCo behind an emulated "
+                             "MIT-CAN / Dynamixel servo bus")
+    parent.add_argument("--bus-config", help="bus mapping (configs/hw name or YAML path) for the emulated buses")
+    parent.add_argument("--viewer", action="store_true", help="open the MuJoCo viewer (needs a display)")
+    parent.add_argument("--video", type=Path, metavar="FILE.mp4",
+                        help="record the run at 30 fps (MuJoCo offscreen renderer; MUJOCO_GL=egl when there is no display)")
+    parent.add_argument("--quiet", action="store_true", help="no progress bar")
+    return parent
+
+
+def _add_balance(sub, sim) -> None:
+    p = sub.add_parser("balance", parents=[sim], help="stand, shift weight, lift a foot, reach with the right hand",
+                       description="Balance demo at 200 Hz control: half-sitting, CoM over the left foot, right foot "
+                                   "up 5 cm and back, CoM back, right-hand reach to (0.4, -0.2, 0.8) m in the start "
+                                   "floor frame and back. Exit status 1 if the robot fell.")
     p.add_argument("--out", type=Path, help="write DIR/report.json")
     p.set_defaults(run=_balance)
 
-    p = sub.add_parser("walk", help="walk a path with the MPC walking controller (MuJoCo)",
+
+def _add_walk(sub, sim) -> None:
+    p = sub.add_parser("walk", parents=[sim], help="walk a path with the MPC walking controller",
                        description="Walk straight (--distance), along an arc (--distance with --turn-deg) or "
                                    "sideways (--lateral), stop in double support and stand 2 s. Exit status 1 if "
                                    "the robot fell.")
-    p.add_argument("--robot", default="talos", help=f"robot config name ({', '.join(available_robots())})")
     p.add_argument("--distance", type=float, default=0.0, help="path length forward [m] (arc length when turning)")
     p.add_argument("--turn-deg", type=float, default=0.0, help="heading change over the path [deg], + left")
     p.add_argument("--lateral", type=float, default=0.0, help="side-step distance [m], + left, - right")
     p.add_argument("--speed", type=float, default=0.25, help="walking speed [m/s], 0.02..0.5")
     p.add_argument("--no-stabilizer", action="store_true", help="open loop: no DCM/ZMP balance feedback")
-    p.add_argument("--arms", choices=("none", "swing"), default="none",
+    p.add_argument("--arms", choices=[m.value for m in ArmMotion], default=ArmMotion.NONE.value,
                    help="upper body: half-sitting, or both elbows swinging ±0.5 rad at 1 Hz")
-    p.add_argument("--dynfilter", choices=("off", "legs", "full"), default="off",
+    p.add_argument("--dynfilter", choices=[m.value for m in FilterMode], default=FilterMode.OFF.value,
                    help="dynamic filter: off, legs only (upper body frozen in its preview) or full body")
     p.add_argument("--dynfilter-passes", type=int, default=2, help="filter passes per WPG sample (1..10)")
     p.add_argument("--dynfilter-inline", action="store_true",
                    help="run the filter in the control loop, its correction applied in the sample it was "
                         "computed for (default: in a worker process on another core, one 0.1 s sample behind)")
-    p.add_argument("--viewer", action="store_true", help="open the MuJoCo viewer (needs a display)")
-    p.add_argument("--out", type=Path, help="write DIR/report.json")
+    p.add_argument("--out", type=Path, help="write DIR/report.json and DIR/timeseries.npz")
     p.set_defaults(run=_walk)
 
-    crowd = sub.add_parser("crowd", help="coupled gaits: contraction certificates and crowd simulation")
-    crowd_sub = crowd.add_subparsers(dest="crowd_command", required=True)
 
-    def graph_args(p):
-        p.add_argument("--graph", choices=("all", "ring", "chain", "star"), default="all", help="named topology")
-        p.add_argument("--n", type=int, default=8, help="number of agents (named topologies)")
-        p.add_argument("--laplacian", type=Path, help="Laplacian matrix as a text file (any graph)")
-        p.add_argument("--adjacency", type=Path, help="adjacency (link weight) matrix as a text file")
+def _graph_args(p) -> None:
+    p.add_argument("--graph", choices=("all", "ring", "chain", "star"), default="all", help="named topology")
+    p.add_argument("--n", type=int, default=8, help="number of agents (named topologies)")
+    p.add_argument("--laplacian", type=Path, help="Laplacian matrix as a text file (any graph)")
+    p.add_argument("--adjacency", type=Path, help="adjacency (link weight) matrix as a text file")
 
-    p = crowd_sub.add_parser("certify", help="check the contraction conditions of a coupling configuration",
-                             description="Prints each applicable sufficient condition with holds/violated, its "
-                                         "margin and the guaranteed convergence rate. Exit status 1 if any is violated.")
-    graph_args(p)
+
+def _add_crowd_certify(sub) -> None:
+    p = sub.add_parser("certify", help="check the contraction conditions of a coupling configuration",
+                       description="Prints each applicable sufficient condition with holds/violated, its margin "
+                                   "and the guaranteed convergence rate. Exit status 1 if any is violated.")
+    _graph_args(p)
     p.add_argument("--k", type=float, help="phase / state coupling strength")
     p.add_argument("--alpha", type=float, help="leader coupling strength")
     p.add_argument("--md", type=float, help="step-frequency (distance) coupling m_d")
@@ -388,10 +434,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="machine-readable output")
     p.set_defaults(run=_crowd_certify)
 
-    p = crowd_sub.add_parser("run", help="simulate coupled Andronov-Hopf gait oscillators (kinematic)",
-                             description="Simulates the group from random initial states, writes DIR/report.json "
-                                         "(certificate, empirical rate, final phase spread) and DIR/dispersion.png.")
-    graph_args(p)
+
+def _add_crowd_run(sub) -> None:
+    p = sub.add_parser("run", help="simulate coupled Andronov-Hopf gait oscillators (kinematic)",
+                       description="Simulates the group from random initial states, writes DIR/report.json "
+                                   "(certificate, empirical rate, final phase spread) and DIR/dispersion.png.")
+    _graph_args(p)
     p.add_argument("--k", type=float, required=True, help="phase (oscillator state) coupling strength [1/s]")
     p.add_argument("--md", type=float, help="step-frequency coupling m_d [rad/(s m)]")
     p.add_argument("--mz", type=float, help="step-length coupling m_z [1/m]")
@@ -405,17 +453,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", type=Path, help="output folder")
     p.set_defaults(run=_crowd_run)
 
-    p = crowd_sub.add_parser("figure", help="reproduce thesis Fig. 4.6 (rate vs k, slope vs N)")
-    p.add_argument("--runs", type=int, default=30, help="random initial conditions per point")
-    p.add_argument("--out", type=Path, default=Path("runs/fig_4_6"), help="output folder")
-    p.set_defaults(run=_crowd_figure)
 
-    p = crowd_sub.add_parser("walk", help="robots walking side by side with coupled gaits (MuJoCo)",
-                             description="N robots in one MuJoCo world, each with its own walking controller, start "
-                                         "at random step phases and walk abreast along +x; step phase (k), step "
-                                         "length (m_z) and heading (m_psi) are coupled through the gait bridge. "
-                                         "Writes DIR/report.json and DIR/phases.png. Exit status 1 if a robot fell.")
-    p.add_argument("--robot", default="talos", help=f"robot config name ({', '.join(available_robots())})")
+def _add_crowd_walk(sub, sim) -> None:
+    p = sub.add_parser("walk", parents=[sim], help="robots walking side by side with coupled gaits (MuJoCo)",
+                       description="N robots in one MuJoCo world, each with its own walking controller, start at "
+                                   "random step phases and walk abreast along +x; step phase (k), step length "
+                                   "(m_z) and heading (m_psi) are coupled through the gait bridge. Writes "
+                                   "DIR/report.json and DIR/phases.png. Exit status 1 if a robot fell.")
     p.add_argument("--robots", type=int, default=3, help="number of robots, 2..8")
     p.add_argument("--graph", choices=("all", "ring", "chain", "star"), default="all", help="coupling topology")
     p.add_argument("--k", type=float, default=1.0, help="step-phase coupling k [1/s]")
@@ -426,30 +470,42 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--coupled-time", type=float, default=10.0, help="walking time with the coupling on [s]")
     p.add_argument("--seed", type=int, default=0, help="seed of the random start phases")
     p.add_argument("--allow-unstable", action="store_true", help="run even if the certificate is violated")
-    p.add_argument("--viewer", action="store_true", help="open the MuJoCo viewer (needs a display)")
     p.add_argument("--out", type=Path, help="output folder")
     p.set_defaults(run=_crowd_walk)
 
-    p = crowd_sub.add_parser("gait-profile", help="measure the gait's speed profile g(phi) in MuJoCo",
-                             description="Walks straight and bins the measured CoM forward speed over the gait "
-                                         "phase; the crowd certificates and simulations use it.")
-    p.add_argument("--robot", default="talos", help=f"robot config name ({', '.join(available_robots())})")
+
+def _add_crowd_gait_profile(sub, sim) -> None:
+    p = sub.add_parser("gait-profile", parents=[sim], help="measure the gait's speed profile g(phi) in MuJoCo",
+                       description="Walks straight and bins the measured CoM forward speed over the gait phase; "
+                                   "the crowd certificates and simulations use it.")
     p.add_argument("--speed", type=float, default=0.2, help="walking speed [m/s], 0.05..0.3")
-    p.add_argument("--cycles", type=int, default=6, help="gait cycles averaged")
+    p.add_argument("--cycles", type=int, default=6, help="gait cycles averaged, 2..50")
     p.add_argument("--out", type=Path, help="output JSON (default models/<robot>_gait_profile.json)")
     p.set_defaults(run=_crowd_gait_profile)
 
-    def synth_args(p):
-        p.add_argument("--robot", default="talos", help=f"robot config name ({', '.join(available_robots())})")
-        p.add_argument("--dataset", type=Path, default=None,
-                       help="demonstration set (default: models/<robot>_walk_reach_demos.npz)")
 
-    p = sub.add_parser("synth", help="walk-and-reach synthesis from learned primitives (kinematic, no physics)",
+def _add_crowd(sub, sim) -> None:
+    crowd = sub.add_parser("crowd", help="coupled gaits: contraction certificates and crowd simulation")
+    crowd_sub = crowd.add_subparsers(dest="crowd_command", required=True)
+    _add_crowd_certify(crowd_sub)
+    _add_crowd_run(crowd_sub)
+    p = crowd_sub.add_parser("figure", help="reproduce thesis Fig. 4.6 (rate vs k, slope vs N)")
+    p.add_argument("--runs", type=int, default=30, help="random initial conditions per point")
+    p.add_argument("--out", type=Path, default=Path("runs/fig_4_6"), help="output folder")
+    p.set_defaults(run=_crowd_figure)
+    _add_crowd_walk(crowd_sub, sim)
+    _add_crowd_gait_profile(crowd_sub, sim)
+
+
+def _add_synth(sub, robot) -> None:
+    data = argparse.ArgumentParser(add_help=False, parents=[robot])
+    data.add_argument("--dataset", type=Path, default=None,
+                      help="demonstration set (default: models/<robot>_walk_reach_demos.npz)")
+    p = sub.add_parser("synth", parents=[data], help="walk-and-reach synthesis from learned primitives (kinematic)",
                        description="Plans the actions for a drawer at --distance (end-state comfort), synthesizes "
                                    "pelvis velocity and upper-body joint angles at 200 Hz until the sequence ends, "
                                    "and prints planned vs realized action lengths (pelvis advance per gait cycle) and "
                                    "the final pelvis-to-drawer distance.")
-    synth_args(p)
     p.add_argument("--distance", type=float, required=True, help="drawer front panel from the start pelvis [m]")
     p.add_argument("--slot", default="front_left", help="object slot in the drawer: front_left, front_right, "
                                                           "back_left or back_right")
@@ -458,28 +514,37 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--plot", type=Path, default=None, help="PNG of joint angles, pelvis velocity, action boundaries")
     p.add_argument("--out", type=Path, default=None, help="folder for synth.json")
     p.set_defaults(run=_synth)
-
-    p = sub.add_parser("synth-quality", help="approximation quality of the learned mixture model vs PCA",
+    p = sub.add_parser("synth-quality", parents=[data], help="approximation quality of the learned model vs PCA",
                        description="Learns the stepwise anechoic model (s0 + 3 periodic sources for action 1, 2 more "
                                    "for actions 2 and 3) and prints Q = 1 - |X - X^|^2/|X|^2 per action next to PCA "
                                    "with the same number of sources.")
-    synth_args(p)
     p.set_defaults(run=_synth_quality)
-
-    p = sub.add_parser("synth-demos", help="generate the walk-and-reach demonstration set (IK, kinematic)")
-    p.add_argument("--robot", default="talos", help=f"robot config name ({', '.join(available_robots())})")
+    p = sub.add_parser("synth-demos", parents=[robot], help="generate the walk-and-reach demonstration set (IK)")
     p.add_argument("--out", type=Path, default=None, help="output .npz (default: models/<robot>_walk_reach_demos.npz)")
     p.set_defaults(run=_synth_demos)
 
+
+def _add_tools(sub) -> None:
     p = sub.add_parser("report", help="render DIR/report.json (+ timeseries) as DIR/report.html",
                        description="Self-contained HTML: metrics table, ZMP reference vs measured, top view of CoM "
                                    "and footprints, joint torque peaks against limits, GRF against time.")
     p.add_argument("dir", type=Path, help="a run's output folder (--out of balance or walk)")
     p.set_defaults(run=_report)
-
     p = sub.add_parser("robots", help="list the robot configs (and convert their MJCF with --convert)")
     p.add_argument("--convert", action="store_true", help="convert each robot to its cached MJCF and print the path")
     p.set_defaults(run=_robots)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="robot-ctrl", description=__doc__)
+    sub = parser.add_subparsers(dest="command", required=True)
+    robot = _robot_parent()
+    sim = _simulation_parent(robot)
+    _add_balance(sub, sim)
+    _add_walk(sub, sim)
+    _add_crowd(sub, sim)
+    _add_synth(sub, robot)
+    _add_tools(sub)
     return parser
 
 

@@ -5,12 +5,12 @@ import json
 import pytest
 
 from robot_ctrl.cli import main
-from robot_ctrl.scenarios.group_walk import run_group_walk
+from robot_ctrl.scenarios.group_walk import GroupWalk, run_group_walk
 
 
 def test_three_robots_synchronize_their_steps_without_falling(talos, tmp_path):
     # Seed 0 starts near the 3-phase splay (phase spread 2.36 rad), the slowest case we know.
-    report = run_group_walk(talos, n=3, graph="all", k=1.0, coupled_time=8.0, seed=0, out_dir=tmp_path,
+    report = run_group_walk(talos, GroupWalk(n=3, graph="all", k=1.0, coupled_time=8.0, seed=0), out_dir=tmp_path,
                             log=lambda _: None)
     assert not report["fell"] and not any(r["fell"] for r in report["robots"])
     assert report["initial_phase_spread_rad"] > 2.0

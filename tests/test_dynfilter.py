@@ -8,8 +8,8 @@ import pytest
 from robot_ctrl.control.walking_controller import WalkingController
 from robot_ctrl.dynfilter.dynamic_filter import DynamicFilter
 from robot_ctrl.dynfilter.filter_worker import DynamicFilterWorker
-from robot_ctrl.dynfilter.preview_correction import PreviewCorrection
 from robot_ctrl.dynfilter.multibody_zmp import multibody_zmp
+from robot_ctrl.dynfilter.preview_correction import PreviewCorrection
 from robot_ctrl.hw.mujoco_backend import MujocoBackend
 
 
@@ -121,7 +121,7 @@ def test_a_stopped_worker_is_reported(talos):
 
 
 def test_filter_settings_are_checked(talos):
-    with pytest.raises(ValueError, match="dynfilter mode 'both' is not one of off, legs, full"):
+    with pytest.raises(ValueError, match="dynfilter 'both' is not one of off, legs, full"):
         DynamicFilter(talos, 16, 0.88, "both")
     with pytest.raises(ValueError, match=r"dynfilter passes = 0 must be an integer in \[1, 10\]"):
         DynamicFilter(talos, 16, 0.88, "full", passes=0)

@@ -4,8 +4,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from robot_ctrl.sot import (ComTask, FrameTask, HierarchicalQP, InfeasibleError, JointLimits, PostureTask,
-                            WholeBodyIK)
+from robot_ctrl.sot import ComTask, FrameTask, HierarchicalQP, InfeasibleError, JointLimits, PostureTask, WholeBodyIK
 
 DT = 0.005
 

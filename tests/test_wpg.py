@@ -1,14 +1,17 @@
 """Walking pattern generator: MPC constraints, velocity tracking, footstep reachability, start/stop."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
-from robot_ctrl.wpg.footstep import Footstep, rotation
+from robot_ctrl.geometry import rotation
+from robot_ctrl.wpg.footstep import Footstep
 from robot_ctrl.wpg.generator import WalkingPatternGenerator
 from robot_ctrl.wpg.lipm import com_at, horizon_matrices
 from robot_ctrl.wpg.params import WalkParams
 
-PARAMS = WalkParams(com_height=0.88, step_width=0.17)
+PARAMS = WalkParams(com_height=0.88, step_width=0.17, foot_length=0.21, foot_width=0.13)
 
 
 def standing_generator(params=PARAMS):
@@ -122,7 +125,7 @@ def test_stop_at_puts_the_feet_on_the_goal():
                                          ("com_height", float("nan"))])
 def test_bad_parameters_name_the_field(field, value):
     with pytest.raises(ValueError, match=f"WalkParams.{field}"):
-        WalkParams(**{field: value})
+        dataclasses.replace(PARAMS, **{field: value})
 
 
 def test_velocity_reference_must_be_finite():

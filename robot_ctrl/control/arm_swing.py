@@ -12,10 +12,25 @@ into the joint limits given.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
+from robot_ctrl.modes import ArmMotion
+from robot_ctrl.robot.model import RobotModel
+from robot_ctrl.sot.joint_limits import JointLimits
+
 DEFAULT_JOINTS = ("arm_left_4_joint", "arm_right_4_joint")
+
+
+def arm_motion(kind: ArmMotion | str, robot: RobotModel) -> Callable[[float], np.ndarray] | None:
+    """The upper-body reference ``posture(t)`` for ``kind``; None: the controller's default posture."""
+    if ArmMotion.parse(kind) is ArmMotion.NONE:
+        return None
+    limits = JointLimits.from_robot(robot)
+    return ArmSwing.for_joints(DEFAULT_JOINTS, robot.joint_names,
+                               np.clip(robot.config.half_sitting, limits.q_min, limits.q_max),
+                               limits.q_min, limits.q_max)
 
 
 @dataclass(frozen=True)

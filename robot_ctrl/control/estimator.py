@@ -12,11 +12,10 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from robot_ctrl.geometry import GRAVITY, SIDES
+from robot_ctrl.geometry.support_polygon import SupportPolygon
 from robot_ctrl.hw.types import JointState
 from robot_ctrl.robot.model import RobotModel, configuration
-from robot_ctrl.wpg.support_polygon import SupportPolygon
-
-SIDES = ("left", "right")
 
 
 @dataclass(frozen=True)
@@ -38,7 +37,7 @@ class StateEstimator:
         """``contact_threshold``: share of the robot's weight on a foot that counts as contact."""
         self.robot = robot
         self.data = robot.pin.createData()
-        self.threshold = contact_threshold * robot.mass * 9.81
+        self.threshold = contact_threshold * robot.mass * GRAVITY
         self._sole_frames = {s: robot.frame_ids[f"{s}_foot"] for s in SIDES}
 
     def estimate(self, state: JointState) -> Estimate:

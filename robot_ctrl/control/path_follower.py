@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robot_ctrl.wpg.footstep import rotation, wrap_angle
+from robot_ctrl.geometry import rotation, wrap_angle
 
 
 @dataclass(frozen=True)

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from robot_ctrl.control.estimator import Estimate
-from robot_ctrl.wpg.lipm import GRAVITY
+from robot_ctrl.geometry import GRAVITY
 
 
 @dataclass(frozen=True)

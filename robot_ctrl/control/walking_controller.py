@@ -11,27 +11,30 @@ loop can run while the robot executes the previous command.
 
 Simplification: the feedforward is computed in ``prepare``, at the reference configuration
 extrapolated over the tick with the last tick's IK velocity, not at the configuration the IK then
-integrates, so that its cost (80 µs) leaves the path from the state's measurement to the command.
-On a 2 m arm-swing walk with the dynamic filter, the two configurations differ by 0.4 mrad per
-joint (median; 4 mrad at most) and the feedforward by 0.18 N·m at most.
+integrates, so that its cost leaves the path from the state's measurement to the command. The two
+differ by a fraction of a milliradian per joint; ``tests/test_walk.py`` bounds the feedforward's
+difference, docs/walking.md gives the measured one.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
 import pinocchio as pin
 
-from robot_ctrl.control.static_feedforward import static_torques, weight_shares
 from robot_ctrl.control.estimator import StateEstimator
 from robot_ctrl.control.stabilizer import DcmStabilizer
+from robot_ctrl.control.static_feedforward import static_torques, weight_shares
 from robot_ctrl.dynfilter.dynamic_filter import DynamicFilter
 from robot_ctrl.dynfilter.filter_worker import DynamicFilterWorker
+from robot_ctrl.geometry import SIDES, yaw_of
 from robot_ctrl.hw.types import JointCommand, JointState
+from robot_ctrl.modes import FilterMode
 from robot_ctrl.robot.model import RobotModel, configuration
-from robot_ctrl.sot.whole_body_ik import SIDES, WholeBodyIK
-from robot_ctrl.wpg.footstep import Footstep, yaw_of
+from robot_ctrl.sot.whole_body_ik import WholeBodyIK
+from robot_ctrl.wpg.footstep import Footstep
 from robot_ctrl.wpg.generator import WalkingPatternGenerator, WalkReference
 from robot_ctrl.wpg.params import WalkParams
 
@@ -40,15 +43,35 @@ def sole_footstep(side: str, pose: pin.SE3) -> Footstep:
     return Footstep(side, float(pose.translation[0]), float(pose.translation[1]), yaw_of(pose.rotation))
 
 
+@dataclass(frozen=True)
+class PlanSample:
+    """What a commander sees at the controller's sample hook: the plan at the start of the sample
+    about to be solved (world frame)."""
+
+    t: float  # [s] time of the tick that starts the sample
+    com_xy: np.ndarray  # (2,) planned CoM [m]
+    heading: float  # [rad] heading of the plan
+    gait_phase: float | None  # [rad] π per step since the first single support; None before it
+    standing: bool  # the plan stands (no step under way or planned)
+
+
 class WalkingController:
+    """The walking pipeline for one robot. Commands: :meth:`set_velocity`, :meth:`stop_at`,
+    :meth:`set_time_scale`, from a hook registered with :meth:`on_sample`, which runs at the start of
+    every pattern-generator sample, just before the MPC solves it."""
+
     def __init__(self, robot: RobotModel, state: JointState, params: WalkParams | None = None,
-                 control_dt: float = 0.005, stabilizer: DcmStabilizer | None = None,
-                 upper_body: Callable[[float], np.ndarray] | None = None, dynfilter: str = "off",
-                 dynfilter_passes: int = 2, dynfilter_worker: bool = False):
-        """``upper_body(t)``: posture-task target (joint order, rad) at time t, default the
-        half-sitting posture; ``dynfilter``: ``off``, ``legs`` or ``full`` (``DynamicFilter``), in
-        a worker process one WPG sample behind with ``dynfilter_worker`` (``DynamicFilterWorker``).
-        Call :meth:`close` when done (it ends the worker)."""
+                 control_dt: float = 0.005, stabilize: bool = True,
+                 upper_body: Callable[[float], np.ndarray] | None = None,
+                 dynfilter: FilterMode | str = FilterMode.OFF, dynfilter_passes: int = 2,
+                 dynfilter_worker: bool = False):
+        """``params``: pattern-generator settings; its robot-dependent fields are derived from the
+        robot's start posture when not given (:meth:`WalkParams.for_robot`). ``stabilize``: DCM/ZMP
+        balance feedback (``DcmStabilizer``). ``upper_body(t)``: posture-task target (joint order, rad)
+        at time t, default the half-sitting posture; ``dynfilter``: :class:`FilterMode`, in a worker
+        process one WPG sample behind with ``dynfilter_worker`` (``DynamicFilterWorker``). Call
+        :meth:`close` when done (it ends the worker)."""
+        dynfilter = FilterMode.parse(dynfilter)
         self.robot = robot
         self.dt = control_dt
         q0 = configuration(robot, state.base_pos, state.base_quat_xyzw, state.q)
@@ -57,22 +80,24 @@ class WalkingController:
         self.sole_height = float(np.mean([feet[s].translation[2] for s in SIDES]))
         com = self.ik.com_position()
         self.com_z = float(com[2])
-        base = WalkParams() if params is None else params
-        fields = dict(base.__dict__)
-        fields.update(com_height=self.com_z - self.sole_height, foot_length=robot.config.foot.length,
-                      foot_width=robot.config.foot.width,
-                      step_width=float(np.linalg.norm(feet["left"].translation[:2] - feet["right"].translation[:2])))
-        self.params = WalkParams(**fields)
+        self.params = (WalkParams() if params is None else params).for_robot(
+            com_height=self.com_z - self.sole_height, foot_length=robot.config.foot.length,
+            foot_width=robot.config.foot.width,
+            step_width=float(np.linalg.norm(feet["left"].translation[:2] - feet["right"].translation[:2])))
         self.wpg = WalkingPatternGenerator(self.params, sole_footstep("left", feet["left"]),
                                            sole_footstep("right", feet["right"]), com[:2])
         if control_dt > self.params.sample_time:
             raise ValueError(f"control_dt = {control_dt} s must not exceed WalkParams.sample_time = "
                              f"{self.params.sample_time} s")
-        self.stabilizer = stabilizer if stabilizer is not None else DcmStabilizer(self.params.com_height)
+        self.stabilizer = DcmStabilizer(self.params.com_height)
+        self.stabilizer.enabled = stabilize
         default_posture = self.ik.posture.target.copy()
         self.upper_body = upper_body if upper_body is not None else (lambda t: default_posture)
-        filter_type = DynamicFilterWorker if dynfilter_worker and dynfilter != "off" else DynamicFilter
-        self.dynfilter = filter_type(robot, self.params.horizon, self.params.com_height, dynfilter, dynfilter_passes)
+        self.dynfilter_mode = dynfilter
+        worker = dynfilter_worker and dynfilter is not FilterMode.OFF
+        self.dynfilter_worker = worker
+        self.dynfilter = (DynamicFilterWorker if worker else DynamicFilter)(
+            robot, self.params.horizon, self.params.com_height, dynfilter, dynfilter_passes)
         self.estimator = StateEstimator(robot)
         self.estimate = None
         self._statics = robot.pin.createData()
@@ -80,11 +105,62 @@ class WalkingController:
         self.reference: WalkReference | None = None
         self._prepared: tuple[WalkReference, np.ndarray, np.ndarray, np.ndarray] | None = None  # see prepare
         self._v = np.zeros(robot.pin.nv)  # the IK's velocity at the last tick
+        self._sample_hooks: list[Callable[[PlanSample], None]] = []
+
+    # Commands ---------------------------------------------------------------------------------
+    def on_sample(self, hook: Callable[[PlanSample], None]) -> None:
+        """Call ``hook`` at the start of every pattern-generator sample, before it is solved: the
+        commands it gives apply to that sample."""
+        self._sample_hooks.append(hook)
+
+    def set_velocity(self, vx: float, vy: float, wz: float) -> None:
+        """Reference velocity in the heading frame: vx, vy [m/s], ωz [rad/s]; all zero stops."""
+        self.wpg.set_velocity(vx, vy, wz)
+
+    def stop_at(self, left: Footstep, right: Footstep) -> None:
+        """Stop with the soles at these footsteps (world frame), as close as the reach allows."""
+        self.wpg.stop_at(left, right)
+
+    def set_time_scale(self, scale: float) -> None:
+        """Physical / nominal duration of the gait from the next sample on (step period × scale)."""
+        self.wpg.set_time_scale(scale)
+
+    # What the plan says -----------------------------------------------------------------------
+    @property
+    def standing(self) -> bool:
+        return self.wpg.standing
+
+    @property
+    def heading(self) -> float:
+        return self.wpg.heading
+
+    @property
+    def touchdowns(self) -> list:
+        """Every planned touch-down so far (``wpg.generator.Touchdown``), in order."""
+        return self.wpg.touchdowns
+
+    @property
+    def solve_times(self) -> list[float]:
+        """Wall-clock time of each MPC solve [s]."""
+        return self.wpg.solve_times
+
+    def footsteps(self) -> dict[str, Footstep]:
+        """The feet's current planned footsteps (world frame)."""
+        return dict(self.wpg.feet)
+
+    def plan_sample(self) -> PlanSample:
+        wpg = self.wpg
+        return PlanSample(self.k * self.dt, np.array([wpg.com_x[0], wpg.com_y[0]]), wpg.heading,
+                          wpg.gait_phase(self.k * self.dt - wpg.sample_start), wpg.standing)
+
+    def gait_phase(self, t: float | None = None) -> float | None:
+        """Gait phase of the plan [rad] at time ``t`` within the current sample (default: the next
+        tick); None before the first step."""
+        return self.wpg.gait_phase((self.k * self.dt if t is None else t) - self.wpg.sample_start)
 
     @property
     def sample_due(self) -> bool:
-        """The next tick starts a new pattern-generator sample (references set now, before its
-        :meth:`prepare`, apply to it)."""
+        """The next tick starts a new pattern-generator sample."""
         return self.k * self.dt >= self.wpg.t - 1e-9
 
     def prepare(self) -> None:
@@ -95,6 +171,10 @@ class WalkingController:
         :meth:`step` calls it when the loop did not."""
         t = self.k * self.dt
         if self.sample_due:
+            if self._sample_hooks:
+                sample = self.plan_sample()
+                for hook in self._sample_hooks:
+                    hook(sample)
             self.wpg.update()
             self.dynfilter.update(self.wpg, self.ik.q, self.com_z, self.sole_height, self.upper_body,
                                   self.wpg.sample_start)

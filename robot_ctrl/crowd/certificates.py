@@ -45,6 +45,7 @@ profile (forward speed over a cycle, normalized or not), given as samples over o
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Callable
 
 import numpy as np
 
@@ -262,3 +263,14 @@ def _step_frequency_sampled(graph: CouplingGraph, m_d: float, g: np.ndarray, sam
         J = -m_d * graph.laplacian @ Dg
         worst = max(worst, float(np.linalg.eigvalsh(V @ ((J + J.T) / 2) @ V.T)[-1]))
     return -worst if worst < 0 else None
+
+
+def refuse_violated(conditions: list[Condition], allow_unstable: bool, log: Callable[[str], None] = print) -> None:
+    """Raise ``ValueError`` naming the violated conditions unless ``allow_unstable``; with it, say
+    that convergence is not guaranteed."""
+    violated = [c.name for c in conditions if not c.holds]
+    if violated and not allow_unstable:
+        raise ValueError(f"the contraction condition(s) {', '.join(violated)} are violated for this configuration; "
+                         "pass --allow-unstable to run it anyway")
+    if violated:
+        log(f"running an uncertified configuration ({', '.join(violated)} violated): convergence is not guaranteed")

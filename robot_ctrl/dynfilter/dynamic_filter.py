@@ -29,19 +29,20 @@ import pinocchio as pin
 from robot_ctrl.dynfilter.multibody_zmp import trajectory_zmp
 from robot_ctrl.dynfilter.preview_correction import PreviewCorrection
 from robot_ctrl.dynfilter.preview_ik import PreviewIK
+from robot_ctrl.geometry import SIDES
+from robot_ctrl.modes import FilterMode
 from robot_ctrl.robot.model import RobotModel
-from robot_ctrl.sot.whole_body_ik import SIDES
 from robot_ctrl.wpg.generator import PreviewSample, WalkingPatternGenerator
 
-MODES = ("off", "legs", "full")
 DOUBLE_SUPPORT_WEIGHT = 0.1  # of the ZMP error in double-support samples (see PreviewCorrection)
 
 
 class DynamicFilter:
-    def __init__(self, robot: RobotModel, horizon: int, com_height: float, mode: str = "full", passes: int = 2):
+    def __init__(self, robot: RobotModel, horizon: int, com_height: float, mode: FilterMode | str = FilterMode.FULL,
+                 passes: int = 2):
         self.check_settings(mode, passes)
         self.robot = robot
-        self.mode = mode
+        self.mode = FilterMode(mode)
         self.passes = passes
         self.correction = PreviewCorrection(horizon, com_height)
         self._data = robot.pin.createData()
@@ -51,9 +52,8 @@ class DynamicFilter:
         self.pass_rms: list[float] = []  # weighted RMS of that error at each pass of the last update [m]
 
     @staticmethod
-    def check_settings(mode: str, passes: int) -> None:
-        if mode not in MODES:
-            raise ValueError(f"dynfilter mode {mode!r} is not one of {', '.join(MODES)}")
+    def check_settings(mode: FilterMode | str, passes: int) -> None:
+        FilterMode.parse(mode)
         if not (isinstance(passes, int) and 1 <= passes <= 10):
             raise ValueError(f"dynfilter passes = {passes!r} must be an integer in [1, 10]")
 

@@ -5,7 +5,7 @@ cost about as much as the rest of the control loop; here they run on another CPU
 controller executes the sample. At the start of sample k the controller sends sample k's plan and
 takes the worker's result for sample k − 1, carried one sample ahead (``PreviewCorrection.advance``).
 
-Simplification (README, "Dynamic filter"): the offset applied during sample k was refined on the
+Simplification (docs/dynamic-filter.md): the offset applied during sample k was refined on the
 plan of sample k − 1, 0.1 s older than the plan it corrects. The worker's chain of offset plans is
 the in-process filter's chain fed the same requests; only its use is one sample later. The
 controller waits for the result when the worker is late, so a run does not depend on timing.
@@ -22,6 +22,7 @@ import numpy as np
 
 from robot_ctrl.dynfilter.dynamic_filter import DynamicFilter, filter_request
 from robot_ctrl.dynfilter.preview_correction import PreviewCorrection
+from robot_ctrl.modes import FilterMode
 from robot_ctrl.robot.model import RobotModel
 from robot_ctrl.wpg.generator import WalkingPatternGenerator
 
@@ -58,9 +59,11 @@ class DynamicFilterWorker:
     """Same interface as :class:`DynamicFilter` (``update``, ``offset``, ``last_error``,
     ``pass_rms``, ``close``) for the modes ``legs`` and ``full``; ``close()`` ends the worker."""
 
-    def __init__(self, robot: RobotModel, horizon: int, com_height: float, mode: str = "full", passes: int = 2):
+    def __init__(self, robot: RobotModel, horizon: int, com_height: float, mode: FilterMode | str = FilterMode.FULL,
+                 passes: int = 2):
         DynamicFilter.check_settings(mode, passes)
-        if mode == "off":
+        mode = FilterMode(mode)
+        if mode is FilterMode.OFF:
             raise ValueError("dynfilter mode 'off' needs no worker: use DynamicFilter")
         self.mode, self.passes = mode, passes
         self.correction = PreviewCorrection(horizon, com_height)

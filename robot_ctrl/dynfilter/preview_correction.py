@@ -24,7 +24,7 @@ from robot_ctrl.wpg.lipm import com_at, horizon_matrices, transition
 
 class PreviewCorrection:
     def __init__(self, horizon: int, com_height: float, jerk_weight: float = 1e-6, offset_weight: float = 0.2):
-        """Weights chosen on the 3 m arm-swing walk (README): a jerk weight of 1e-4 smooths the
+        """Weights chosen on the 3 m arm-swing walk (docs/dynamic-filter.md): a jerk weight of 1e-4 smooths the
         offset so much that it no longer cancels the error; 1e-6 with double support weighed down
         does."""
         self.N = horizon

@@ -12,7 +12,7 @@ in the null space of the tasks (it biases them by O(μ²), micrometres)::
 
 with P selecting the joints. Joint limits are left out: the preview only predicts the ZMP of the
 plan, it does not command the robot. Cost: one Jacobian evaluation and a 38 x 38 Cholesky solve
-for Talos instead of a three-level QP hierarchy (about 5× faster per step).
+for Talos instead of a three-level QP hierarchy.
 """
 
 from __future__ import annotations
@@ -21,8 +21,11 @@ import numpy as np
 import pinocchio as pin
 from scipy.linalg import lapack
 
+from robot_ctrl.geometry import SIDES
 from robot_ctrl.robot.model import RobotModel
-from robot_ctrl.sot.whole_body_ik import SIDES, hand_tool_dofs
+from robot_ctrl.sot.com_task import ComTask
+from robot_ctrl.sot.frame_task import FrameTask
+from robot_ctrl.sot.whole_body_ik import hand_tool_dofs
 
 POSTURE_WEIGHT = 1e-3  # μ: its bias on the tasks scales with μ², its pull in their null space does not (μ² ≫ λ)
 DAMPING = 1e-8  # λ
@@ -30,13 +33,18 @@ _posv = lapack.dposv
 
 
 class PreviewIK:
+    """The controller's IK tasks (``robot_ctrl.sot``: feet, CoM, waist orientation), stacked into
+    one weighted least-squares step: their errors and Jacobians are the strict hierarchy's."""
+
     def __init__(self, robot: RobotModel):
         self.robot = robot
         model = robot.pin
         self.data = model.createData()
-        self.feet = [robot.frame_ids[f"{s}_foot"] for s in SIDES]
-        self.waist = robot.frame_ids["waist"]
-        self.locked = hand_tool_dofs(robot)  # as in the controller's CoM task
+        ids = robot.frame_ids
+        self.feet = [FrameTask(f"{s}_foot", ids[f"{s}_foot"]) for s in SIDES]
+        self.com = ComTask(locked_dofs=hand_tool_dofs(robot))  # as in the controller's CoM task
+        self.waist = FrameTask("waist", ids["waist"], axes=("rx", "ry", "rz"))
+        self.tasks = (*self.feet, self.com, self.waist)
         self.q = robot.q_half_sitting.copy()
         self._J = np.zeros((18, model.nv))
         self._e = np.zeros(18)
@@ -52,16 +60,16 @@ class PreviewIK:
         robot, model, data, q, J, e = self.robot, self.robot.pin, self.data, self.q, self._J, self._e
         pin.computeJointJacobians(model, data, q)
         pin.updateFramePlacements(model, data)
-        for k, (frame, target) in enumerate(zip(self.feet, feet)):
-            current = data.oMf[frame]
-            e[6 * k : 6 * k + 3] = target.translation - current.translation
-            e[6 * k + 3 : 6 * k + 6] = pin.log3(target.rotation @ current.rotation.T)
-            J[6 * k : 6 * k + 6] = pin.getFrameJacobian(model, data, frame, pin.LOCAL_WORLD_ALIGNED)
-        J[12:15] = pin.jacobianCenterOfMass(model, data, False)  # from the joint Jacobians above
-        J[12:15, self.locked] = 0.0
-        e[12:15] = com - data.com[0]
-        e[15:18] = pin.log3(waist @ data.oMf[self.waist].rotation.T)
-        J[15:18] = pin.getFrameJacobian(model, data, self.waist, pin.LOCAL_WORLD_ALIGNED)[3:]
+        for task, target in zip(self.feet, feet):
+            task.set_target(target)
+        self.com.set_target(com)
+        self.waist.set_target(pin.SE3(waist, np.zeros(3)))
+        row = 0
+        for task in self.tasks:
+            task_error, task_jacobian = task.error_and_jacobian(model, data, q)
+            e[row : row + len(task_error)] = task_error
+            J[row : row + len(task_error)] = task_jacobian
+            row += len(task_error)
         H = J.T @ J
         H.flat[:: H.shape[0] + 1] += self._diagonal
         g = J.T @ e

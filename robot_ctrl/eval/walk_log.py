@@ -22,8 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
+from robot_ctrl.geometry import SIDES
 
-SIDES = ("left", "right")
 GRF_LIMIT_RATIO = 1.4
 
 

@@ -1,14 +1,16 @@
 """Choosing a hardware backend by name, as the CLI's ``--hw`` does.
 
 - ``mujoco``: the robot simulated in MuJoCo (``MujocoBackend``) in a process of its own
-  (``RobotProcess``: the controller computes while the robot moves), no safety layer (the
-  simulation reports saturation and falls itself).
+  (``RobotProcess``: the controller computes while the robot moves), behind a ``SafetyLayer`` with
+  the robot's limits and no soft start (``SafetyLimits.for_simulation``), on the simulation's clock.
 - ``mit-can-emulated``: ``MitCanBackend`` behind a ``SafetyLayer``, talking over python-can virtual
   buses to a ``MitCanEmulator`` whose motors drive the MuJoCo simulation (hardware in the loop).
 - ``dynamixel-emulated``: ``DynamixelBackend`` behind a ``SafetyLayer``, over a pseudo-terminal to a
   ``DynamixelEmulator`` driving the MuJoCo simulation.
 
-The emulated setups read the bus mapping from ``configs/hw/<robot>_mit_can.yaml`` or
+Every kind comes behind a ``SafetyLayer``: what a controller sends reaches the simulated servos as it
+would reach real ones, and the layer's interventions go to the run's report. ``video`` records an MP4
+of the simulated robot (``MujocoWorld``). The emulated setups read the bus mapping from ``configs/hw/<robot>_mit_can.yaml`` or
 ``<robot>_dynamixel.yaml`` (or ``bus_config``), and use the simulation's clock for the safety layer's
 watchdog and staleness checks (lock-step: the simulated robot waits for the controller).
 """
@@ -18,34 +20,35 @@ from __future__ import annotations
 import dataclasses
 import functools
 from contextlib import contextmanager
+from pathlib import Path
 from typing import Iterator
 
-from robot_ctrl.hw.adapter import HardwareAdapter
 from robot_ctrl.hw.bus_config import load_bus_config
 from robot_ctrl.hw.mujoco_backend import MujocoBackend
+from robot_ctrl.hw.mujoco_world import MujocoWorld
 from robot_ctrl.hw.robot_process import RobotProcess
 from robot_ctrl.hw.safety import SafetyLayer, SafetyLimits
+from robot_ctrl.modes import HardwareKind
 from robot_ctrl.robot.model import RobotModel
-
-KINDS = ("mujoco", "mit-can-emulated", "dynamixel-emulated")
 
 
 @contextmanager
-def open_hardware(kind: str, robot: RobotModel, bus_config: str | None = None, viewer: bool = False,
-                  control_dt: float = 0.005) -> Iterator[HardwareAdapter]:
+def open_hardware(kind: HardwareKind | str, robot: RobotModel, bus_config: str | None = None, viewer: bool = False,
+                  control_dt: float = 0.005, video: Path | None = None) -> Iterator[SafetyLayer]:
     """The adapter for ``kind``; emulators are started before and stopped after the block."""
-    if kind not in KINDS:
-        raise ValueError(f"hw {kind!r} is not one of {', '.join(KINDS)}")
-    if kind == "mujoco":
-        hw = RobotProcess(functools.partial(MujocoBackend, robot, control_dt, viewer=viewer), robot.nj, robot.name)
+    kind = HardwareKind.parse(kind)
+    if kind is HardwareKind.MUJOCO:
+        robot_process = RobotProcess(functools.partial(MujocoBackend, robot, control_dt, viewer=viewer, video=video),
+                                     robot.nj, robot.name)
+        hw = SafetyLayer(robot_process, SafetyLimits.for_simulation(robot, control_dt), clock=None)
         try:
             yield hw
         finally:
             hw.close()
         return
-    plant = MujocoBackend(robot, control_dt, viewer=viewer)
+    plant = MujocoBackend(robot, control_dt, viewer=viewer, video=video)
     limits = SafetyLimits.from_robot(robot, control_dt)
-    if kind == "mit-can-emulated":
+    if kind is HardwareKind.MIT_CAN_EMULATED:
         from robot_ctrl.hw.mit_can_backend import MitCanBackend
         from robot_ctrl.hw.mit_can_emulator import MitCanEmulator
 
@@ -66,3 +69,26 @@ def open_hardware(kind: str, robot: RobotModel, bus_config: str | None = None, v
         yield SafetyLayer(backend, limits, clock=emulator.clock)
     finally:
         emulator.close()
+
+
+@contextmanager
+def open_group_hardware(kind: HardwareKind | str, robot: RobotModel, base_poses: list[tuple[float, float, float]],
+                        viewer: bool = False, control_dt: float = 0.005,
+                        video: Path | None = None) -> Iterator[tuple[MujocoWorld, list[SafetyLayer]]]:
+    """Several copies of ``robot`` in one MuJoCo world, at ``base_poses`` (world x, y, yaw), each
+    behind its own ``SafetyLayer``; the world steps once every robot has written its command. Only
+    ``mujoco``: the emulated buses each drive a world of their own."""
+    if HardwareKind.parse(kind) is not HardwareKind.MUJOCO:
+        raise ValueError(f"hw {kind!r}: a group walks in one shared MuJoCo world, which only the 'mujoco' "
+                         "backend drives (each emulated bus drives a simulated robot of its own)")
+    prefixes = tuple(f"{robot.name}_{i}" for i in range(len(base_poses)))
+    world = MujocoWorld(robot.group_mjcf_path(prefixes), control_dt, viewer, video)
+    limits = SafetyLimits.for_simulation(robot, control_dt)
+    hws = [SafetyLayer(MujocoBackend(robot, world=world, prefix=p, base_xy_yaw=pose), limits, clock=None)
+           for p, pose in zip(prefixes, base_poses)]
+    try:
+        yield world, hws
+    finally:
+        for hw in hws:
+            hw.close()
+        world.close()

@@ -11,6 +11,8 @@ The robot starts in its half-sitting posture with the lowest point of its feet o
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import mujoco
 import numpy as np
 
@@ -22,18 +24,21 @@ from robot_ctrl.robot.model import RobotModel
 
 
 class MujocoBackend(HardwareAdapter):
-    """Simulated robot. ``base_xy_yaw`` places the robot's start pose in the world (m, m, rad).
+    """Simulated robot. ``base_xy_yaw`` places the robot's start pose in the world (m, m, rad);
+    ``video``: an MP4 of the robot's own world (a shared world takes its own ``video``).
 
     Without ``world`` the robot gets a world of its own (its cached single-robot scene). With
     ``world``, ``prefix`` names the robot's copy in that scene (``<prefix>/`` joints and bodies).
     """
 
     def __init__(self, robot: RobotModel, control_dt: float = 0.005, base_xy_yaw=(0.0, 0.0, 0.0),
-                 viewer: bool = False, world: MujocoWorld | None = None, prefix: str | None = None):
+                 viewer: bool = False, world: MujocoWorld | None = None, prefix: str | None = None,
+                 video: Path | None = None):
         super().__init__(robot.nj)
         self.robot = robot
         self._owns_world = world is None
-        self.world = MujocoWorld(robot.mjcf_path, control_dt, viewer) if world is None else world
+        self.world = MujocoWorld(robot.mjcf_path, control_dt, viewer, video) if world is None else world
+        self.world.attach()
         self.m, self.d = self.world.m, self.world.d
         self.control_dt = self.world.control_dt
         prefix = f"{robot.name if prefix is None else prefix}/"
@@ -126,8 +131,7 @@ class MujocoBackend(HardwareAdapter):
         self.d.ctrl[self._acts] = cmd.q
         # In the servos' own length and velocity (gear × the joint's): the demand record's gains.
         self._servo = (cmd.kp * self._gear, cmd.kd * self._gear, cmd.kp * cmd.q + self.m.actuator_biasprm[self._acts, 0])
-        if self._owns_world:
-            self.world.step()
+        self.world.submit()
 
     def _peak_demand(self) -> np.ndarray | None:
         """Per joint, the unsaturated servo torque of largest magnitude over the physics steps of

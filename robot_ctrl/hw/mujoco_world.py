@@ -1,10 +1,11 @@
 """MujocoWorld: one MuJoCo model and data shared by every simulated robot in a scene.
 
-The world owns the physics (``MjModel``/``MjData``), the control period and the optional viewer.
-Each robot in it is driven through its own :class:`~robot_ctrl.hw.mujoco_backend.MujocoBackend`
-(lifecycle, read/write); the backends only touch their robot's slice of the data. A world with a
-single robot is stepped by that robot's ``write()``; a world shared by several robots is stepped
-by :meth:`step` once every controller has written its command for the tick (lock-step).
+The world owns the physics (``MjModel``/``MjData``), the control period, the optional viewer and
+the optional video. Each robot in it is driven through its own
+:class:`~robot_ctrl.hw.mujoco_backend.MujocoBackend` (lifecycle, read/write); the backends only
+touch their robot's slice of the data. Each backend attaches itself; the world steps when every
+attached robot has submitted its command for the tick (lock-step): a single robot's ``write()``
+steps it at once.
 
 A control period is one ``mujoco.rollout`` call over its physics steps: the same steps as
 ``mj_step`` in a loop (same warm start, bit for bit), with the state at the start of each step
@@ -27,7 +28,8 @@ class MujocoWorld:
     #: What a physics state holds (``mj_getState``): time, qpos, qvel, act, mocap, user data.
     STATE = mujoco.mjtState.mjSTATE_FULLPHYSICS
 
-    def __init__(self, mjcf: Path, control_dt: float = 0.005, viewer: bool = False):
+    def __init__(self, mjcf: Path, control_dt: float = 0.005, viewer: bool = False, video: Path | None = None):
+        """``video``: write an MP4 of the run there (:class:`~robot_ctrl.hw.mujoco_video.WorldVideo`)."""
         self.m = mujoco.MjModel.from_xml_path(str(mjcf))
         self.d = mujoco.MjData(self.m)
         self.n_substeps = round(control_dt / self.m.opt.timestep)
@@ -50,12 +52,32 @@ class MujocoWorld:
         self._ctrl = np.zeros((1, n, m.nu))
         self._sensordata = np.zeros((1, n, m.nsensordata))
         self._rollout = mujoco.rollout.Rollout(nthread=0)  # runs on the calling thread
+        self._video_path = video
+        self.video = None
+        self._robots = self._submitted = 0
+
+    def attach(self) -> None:
+        """A robot's backend joins the world: the world steps once each attached robot submitted."""
+        self._robots += 1
+
+    def submit(self) -> None:
+        """One attached robot's command for the tick is in; the last one steps the world."""
+        self._submitted += 1
+        if self._submitted >= self._robots:
+            self._submitted = 0
+            self.step()
 
     def open_viewer(self) -> None:
+        """Open the viewer and the video, if asked for (once the robots stand in their start pose)."""
         if self._want_viewer and self._viewer is None:
             import mujoco.viewer
 
             self._viewer = mujoco.viewer.launch_passive(self.m, self.d)
+        if self._video_path is not None and self.video is None:
+            from robot_ctrl.hw.mujoco_video import WorldVideo
+
+            self.video = WorldVideo(self.m, self._video_path)
+            self.video.capture(self.d)
         self._wall0 = time.perf_counter() - self.d.time
 
     def step(self) -> None:
@@ -66,12 +88,14 @@ class MujocoWorld:
         mujoco.mj_getState(self.m, self.d, self._start[0], self.STATE)
         self._warmstart[0] = self.d.qacc_warmstart
         self._ctrl[0] = self.d.ctrl
-        self._rollout.rollout_.rollout([self.m], [self.d], self.n_substeps, mujoco.mjtState.mjSTATE_CTRL,
-                                       self._start, self._warmstart, self._ctrl, self._after, self._sensordata,
-                                       None)
+        self._rollout.rollout([self.m], [self.d], self._start, self._ctrl, skip_checks=True, nstep=self.n_substeps,
+                              control_spec=mujoco.mjtState.mjSTATE_CTRL, initial_warmstart=self._warmstart,
+                              state=self._after, sensordata=self._sensordata)
         self.step_states[0] = self._start[0]
         self.step_states[1:] = self._after[0, :-1]
         mujoco.mj_rnePostConstraint(self.m, self.d)
+        if self.video is not None:
+            self.video.capture(self.d)
         if self._viewer is not None:
             self._viewer.sync()
             lag = self.d.time - (time.perf_counter() - self._wall0)
@@ -79,6 +103,8 @@ class MujocoWorld:
                 time.sleep(lag)
 
     def close(self) -> None:
+        if self.video is not None:
+            self.video.close()
         if self._viewer is not None:
             self._viewer.close()
             self._viewer = None

@@ -11,8 +11,8 @@ for the first write's period to end. Nothing else differs from calling the backe
 same calls reach it in the same order, so a run gives the same numbers either way.
 
 Why a process and not a thread: a thread has to take Python's interpreter lock from the busy
-controller to start each period; on a 2-core machine that hand-over took about 0.15 ms per tick,
-waking the child takes about 0.02 ms. Why a spin on a flag for the reply, and a semaphore for the
+controller to start each period, a hand-over that cost several times what waking a process costs
+(docs/architecture.md). Why a spin on a flag for the reply, and a semaphore for the
 call: the controller has nothing else to do while it waits, and it would take as long again to
 wake; the child waits for about half of each tick, time another process (the dynamic filter's
 worker) can use.

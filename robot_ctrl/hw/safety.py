@@ -79,6 +79,13 @@ class SafetyLimits:
             raise ValueError("SafetyLimits temperatures must satisfy warn <= derate < fault")
 
     @classmethod
+    def for_simulation(cls, robot: RobotModel, control_dt: float = 0.005) -> "SafetyLimits":
+        """The limits in front of a simulated robot: those of :meth:`from_robot` without the soft
+        start (the simulation starts with the servos holding the start posture), so that a run
+        within the limits is the same with or without the layer."""
+        return cls.from_robot(robot, control_dt, soft_start=0.0)
+
+    @classmethod
     def from_robot(cls, robot: RobotModel, control_dt: float = 0.005, **overrides) -> "SafetyLimits":
         """Limits from the robot model: URDF position limits (already inside the config's margins
         for the IK), velocity and effort limits, and the default servo damping for damping mode."""
@@ -87,13 +94,18 @@ class SafetyLimits:
 
 
 class SafetyLayer(HardwareAdapter):
-    def __init__(self, backend: HardwareAdapter, limits: SafetyLimits, clock: Callable[[], float] = time.monotonic):
+    def __init__(self, backend: HardwareAdapter, limits: SafetyLimits,
+                 clock: Callable[[], float] | None = time.monotonic):
+        """``clock``: what the watchdog and staleness checks measure time with, the wall clock by
+        default; None: the time of the states the backend reports (lock-step simulation, where the
+        simulated robot waits for its controller)."""
         super().__init__(backend.nj)
         if len(limits.lower) != backend.nj:
             raise ValueError(f"SafetyLimits are for {len(limits.lower)} joints, the backend has {backend.nj}")
         self.backend = backend
         self.limits = limits
-        self.clock = clock
+        self.clock = clock if clock is not None else self._state_time
+        self._latest_t = 0.0  # time of the last state read [s]
         self.interventions: Counter[str] = Counter()
         self.mode = "off"  # "normal", "damping", "off"
         self._lock = threading.RLock()
@@ -165,8 +177,12 @@ class SafetyLayer(HardwareAdapter):
             self.check_watchdog()
 
     # Read / write -------------------------------------------------------------------------------
+    def _state_time(self) -> float:
+        return self._latest_t
+
     def _read(self) -> JointState:
         state = self.backend.read()
+        self._latest_t = state.t
         now = self.clock()
         with self._lock:
             previous = self._last_state

@@ -11,9 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from robot_ctrl.geometry import SIDES
 from robot_ctrl.hw.types import JointCommand, JointState
-
-SIDES = ("left", "right")
 
 
 class _Shared:

@@ -1,185 +1,78 @@
-"""Balance demo: stand, shift the CoM over the left foot, lift the right foot 5 cm and put it back,
-shift back, reach the right hand to a point and return. Quasi-static and open-loop: the
-stack-of-tasks IK integrates a reference that position servos track, with a quasi-static torque
-feedforward (gravity and planned contact forces) so the servos do not sag under load. There is no
-balance feedback yet (the ZMP/DCM stabilizer comes with walking).
-
-All targets are in the *start floor frame*: origin on the floor midway between the two sole
-frames at the start, x along the feet's mean heading, z up.
-"""
+"""Balance demo: the :class:`~robot_ctrl.control.balance_controller.BalanceController` motion
+(weight shift, foot lift, right-hand reach) on any hardware adapter, with falls, torques, GRF and
+the measured hand error at the end of the reach's hold."""
 
 from __future__ import annotations
 
-import time
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
 import pinocchio as pin
 
-from robot_ctrl.control.static_feedforward import static_torques, weight_shares
+from robot_ctrl.control.balance_controller import BalanceController, BalanceParams
+from robot_ctrl.control.loop import ControlLoop
 from robot_ctrl.eval import FallCriterion, RunMetrics
+from robot_ctrl.eval.recorders import Fell, MetricsRecorder, ProgressBar, TimeLimit
 from robot_ctrl.eval.report_file import write_report
-from robot_ctrl.hw.adapter import HardwareAdapter
 from robot_ctrl.hw.safety import SafetyLayer
-from robot_ctrl.hw.types import JointCommand
 from robot_ctrl.robot.model import RobotModel, configuration
-from robot_ctrl.scenarios.minimum_jerk import interpolate
-from robot_ctrl.sot.whole_body_ik import WholeBodyIK
-
-#: Phases in which the right foot is off the floor (single support on the left foot).
-RIGHT_SWING = ("lift_right", "hold_lifted", "lower_right")
-#: (name, duration [s]) in order.
-PHASES = (
-    ("stand", 1.0), ("shift_left", 2.0), ("settle_left", 0.5), ("lift_right", 1.0), ("hold_lifted", 0.5),
-    ("lower_right", 1.0), ("settle_down", 0.5), ("shift_back", 2.0), ("reach", 2.5), ("hold_reach", 1.0),
-    ("return", 2.5), ("stand_end", 1.0),
-)
 
 
-@dataclass(frozen=True)
-class BalanceParams:
-    lift_height: float = 0.05  # [m]
-    hand_target: tuple[float, float, float] = (0.4, -0.2, 0.8)  # right hand, start floor frame [m]
-    control_dt: float = 0.005  # [s] (200 Hz)
+class HandError:
+    """Logs each phase as it starts, and measures the right hand (forward kinematics of the read
+    state) against the reach target at the end of the ``hold_reach`` phase."""
+
+    def __init__(self, controller: BalanceController, log: Callable[[str], None]):
+        self.controller, self.log = controller, log
+        self.robot = controller.robot
+        self.data = pin.Data(self.robot.pin)
+        self.error: float | None = None
+        self._phase = None
+
+    def on_command(self, tick) -> None:
+        if self.controller.phase != self._phase:
+            self._phase = self.controller.phase
+            self.log(f"t = {tick.t:6.2f} s  {self._phase}")
+
+    def on_state(self, tick) -> None:
+        motion = self.controller.motion
+        if self._phase == "hold_reach" and motion.phase_at(tick.t + self.controller.dt)[0] != "hold_reach":
+            state, robot = tick.states[0], self.robot
+            pin.framesForwardKinematics(robot.pin, self.data,
+                                        configuration(robot, state.base_pos, state.base_quat_xyzw, state.q))
+            hand = self.data.oMf[robot.frame_ids["right_hand"]].translation
+            self.error = float(np.linalg.norm(hand - motion.hand_target))
+            self.log(f"t = {state.t:6.2f} s  hand error {self.error * 1000:.1f} mm")
 
 
-def floor_frame(left: pin.SE3, right: pin.SE3) -> pin.SE3:
-    """Frame on the floor midway between two sole poses, x along their mean heading."""
-    yaw = np.arctan2(*(left.rotation[1::-1, 0] + right.rotation[1::-1, 0]))
-    origin = (left.translation + right.translation) / 2
-    origin[2] = 0.0
-    return pin.SE3(pin.utils.rpyToMatrix(0.0, 0.0, yaw), origin)
-
-
-class BalanceMotion:
-    """Task targets of the balance demo as functions of time, applied to a :class:`WholeBodyIK`."""
-
-    def __init__(self, ik: WholeBodyIK, params: BalanceParams):
-        self.ik = ik
-        self.params = params
-        robot = ik.robot
-        self.left0, self.right0 = ik.pose("left_foot"), ik.pose("right_foot")
-        self.floor = floor_frame(self.left0, self.right0)
-        self.com0 = ik.com_position()
-        offset = np.array([*robot.config.foot.center_offset, 0.0])
-        over_left = self.left0.act(offset)
-        self.com_left = np.array([over_left[0], over_left[1], self.com0[2]])
-        self.hand0 = ik.pose("right_hand").translation
-        self.hand_target = self.floor.act(np.array(params.hand_target))
-        starts = np.cumsum([0.0] + [d for _, d in PHASES])
-        self.phases = [(name, s, d) for (name, d), s in zip(PHASES, starts)]
-        self.duration = float(starts[-1])
-
-    def phase_at(self, t: float) -> tuple[str, float, float]:
-        for name, start, duration in self.phases:
-            if t < start + duration:
-                return name, t - start, duration
-        return self.phases[-1][0], self.phases[-1][2], self.phases[-1][2]
-
-    def apply(self, t: float) -> str:
-        """Set the IK targets for time ``t`` [s]; return the phase name."""
-        name, tp, dur = self.phase_at(t)
-        ik = self.ik
-        com, com_v = self.com0, None
-        foot_z, foot_vz = 0.0, 0.0
-        if name == "shift_left":
-            com, com_v = interpolate(self.com0, self.com_left, tp, dur)
-        elif name in ("settle_left", "lift_right", "hold_lifted", "lower_right", "settle_down"):
-            com = self.com_left
-        elif name == "shift_back":
-            com, com_v = interpolate(self.com_left, self.com0, tp, dur)
-        if name == "lift_right":
-            z, vz = interpolate(np.zeros(1), np.array([self.params.lift_height]), tp, dur)
-            foot_z, foot_vz = z[0], vz[0]
-        elif name == "hold_lifted":
-            foot_z = self.params.lift_height
-        elif name == "lower_right":
-            z, vz = interpolate(np.array([self.params.lift_height]), np.zeros(1), tp, dur)
-            foot_z, foot_vz = z[0], vz[0]
-        ik.com.set_target(com, com_v)
-        foot = self.right0.copy()
-        foot.translation = foot.translation + [0.0, 0.0, foot_z]
-        ik.feet["right"].set_target(foot, np.array([0.0, 0.0, foot_vz, 0.0, 0.0, 0.0]))
-
-        hand = ik.hands["right"]
-        if name in ("reach", "hold_reach", "return"):
-            hand.active = True
-            if name == "reach":
-                p, v = interpolate(self.hand0, self.hand_target, tp, dur)
-            elif name == "hold_reach":
-                p, v = self.hand_target, np.zeros(3)
-            else:
-                p, v = interpolate(self.hand_target, self.hand0, tp, dur)
-            hand.set_target(pin.SE3(np.eye(3), p), np.concatenate([v, np.zeros(3)]))
-        else:
-            hand.active = False
-        return name
-
-    def contacts(self, name: str) -> tuple[list[int], list[float]]:
-        """Sole frames in contact and their planned weight shares, from the reference CoM."""
-        ids = self.ik.robot.frame_ids
-        if name in RIGHT_SWING:
-            return [ids["left_foot"]], [1.0]
-        left, right = weight_shares(self.ik.com.target[:2], self.left0.translation[:2], self.right0.translation[:2])
-        return [ids["left_foot"], ids["right_foot"]], [left, right]
-
-
-def run_balance(robot: RobotModel, hw: HardwareAdapter, params: BalanceParams = BalanceParams(),
-                out_dir: Path | None = None, log: Callable[[str], None] = print) -> dict:
-    """Run the balance demo on a hardware adapter; return (and write to ``out_dir``) the report."""
+def run_balance(robot: RobotModel, hw: SafetyLayer, params: BalanceParams = BalanceParams(),
+                out_dir: Path | None = None, log: Callable[[str], None] = print, progress: bool = False) -> dict:
+    """Run the balance demo on ``hw`` (from :func:`robot_ctrl.hw.hardware.open_hardware`); return
+    (and write to ``out_dir``) the report."""
     dt = params.control_dt
     hw.configure()
     hw.activate()
     state = hw.read()
     if state.base_pos is None:
         raise ValueError("the balance demo needs a backend that reports the base pose")
-    ik = WholeBodyIK(robot, configuration(robot, state.base_pos, state.base_quat_xyzw, state.q))
-    motion = BalanceMotion(ik, params)
+    controller = BalanceController(robot, state, params)
     metrics = RunMetrics(robot.joint_names, robot.effort, FallCriterion(float(state.base_pos[2])))
-    measured = pin.Data(robot.pin)
-    statics = pin.Data(robot.pin)
-    hand_error = None
-    phase = None
-    wall0 = time.perf_counter()
+    hand = HandError(controller, log)
+    bar = ProgressBar(controller.duration, progress)
+    loop = ControlLoop([hw], [controller], dt, recorders=[MetricsRecorder([metrics]), hand, bar],
+                       stops=[Fell([metrics]), TimeLimit(controller.duration - dt / 2, "motion done:")])
     try:
-        for k in range(round(motion.duration / dt)):
-            t = k * dt
-            name = motion.apply(t)
-            if name != phase:
-                log(f"t = {t:6.2f} s  {name}")
-                phase = name
-            v = ik.step(dt)
-            tau, _ = static_torques(robot.pin, statics, ik.q, *motion.contacts(name))
-            hw.write(JointCommand(q=robot.joints_from_q(ik.q), dq=v[robot.v_index], kp=robot.kp, kd=robot.kd,
-                                  tau_ff=tau[robot.v_index]))
-            state = hw.read()
-            metrics.update(state)
-            if metrics.fell:
-                log(f"t = {state.t:6.2f} s  FELL: {metrics.fall_reason}")
-                break
-            if name == "hold_reach" and motion.phase_at(t + dt)[0] != "hold_reach":
-                q_meas = configuration(robot, state.base_pos, state.base_quat_xyzw, state.q)
-                pin.framesForwardKinematics(robot.pin, measured, q_meas)
-                hand = measured.oMf[robot.frame_ids["right_hand"]].translation
-                hand_error = float(np.linalg.norm(hand - motion.hand_target))
-                log(f"t = {state.t:6.2f} s  hand error {hand_error * 1000:.1f} mm")
+        result = loop.run([state])
     finally:
-        wall = time.perf_counter() - wall0
-        hw.close()
-    report = metrics.report()
-    if isinstance(hw, SafetyLayer):
-        report["safety"] = hw.report()
-        log(f"safety layer: {report['safety']}")
-    report.update(
-        robot=robot.name,
-        hand_error_m=hand_error,
-        hand_target_floor_m=list(params.hand_target),
-        rtf=round(metrics.t / wall, 3),
-        control_rate_hz=round(1.0 / dt, 3),
-    )
-    log(f"fell: {str(report['fell']).lower()}  hand_error_m: {hand_error}  peak_torque_ratio: "
+        bar.close()
+    if metrics.fell:
+        log(result.stop_reason)
+    report = metrics.report() | dict(robot=robot.name, hand_error_m=hand.error,
+                                     hand_target_floor_m=list(params.hand_target), safety=hw.report(),
+                                     rtf=round(result.rtf, 3), control_rate_hz=round(1.0 / dt, 3))
+    log(f"safety layer: {report['safety']}")
+    log(f"fell: {str(report['fell']).lower()}  hand_error_m: {hand.error}  peak_torque_ratio: "
         f"{report['peak_torque_ratio']:.3f} ({report['peak_torque_joint']})  peak_grf_n: {report['peak_grf_n']}  "
         f"rtf: {report['rtf']}")
     write_report(report, out_dir, log)

@@ -11,49 +11,66 @@ from typing import Callable
 
 import numpy as np
 
+from robot_ctrl.control.loop import ControlLoop
 from robot_ctrl.control.walking_controller import WalkingController
 from robot_ctrl.crowd.gait_profile import GaitProfile, binned_speed
 from robot_ctrl.eval import FallCriterion, RunMetrics
-from robot_ctrl.hw.mujoco_backend import MujocoBackend
+from robot_ctrl.eval.recorders import Fell, MetricsRecorder, ProgressBar, TimeLimit
+from robot_ctrl.hw.safety import SafetyLayer
 from robot_ctrl.robot.model import RobotModel
 
 
-def measure_gait_profile(robot: RobotModel, speed: float = 0.2, cycles: int = 6, bins: int = 32,
-                         out: Path | None = None, log: Callable[[str], None] = print,
-                         control_dt: float = 0.005) -> GaitProfile:
+class PhaseSpeedRecorder:
+    """(gait phase, measured CoM forward speed) of every tick within cycles 1..``cycles``; its
+    ``reason`` ends the run after them."""
+
+    def __init__(self, controller: WalkingController, speed: float, cycles: int):
+        self.controller, self.cycles = controller, cycles
+        self.phases: list[float] = []
+        self.speeds: list[float] = []
+        self._phase = None
+        controller.on_sample(lambda sample: controller.set_velocity(speed, 0.0, 0.0))
+
+    def on_command(self, tick) -> None:
+        self._phase = self.controller.gait_phase(tick.t) if tick.k else None
+        if self._phase is not None and 2 * np.pi <= self._phase < 2 * np.pi * (self.cycles + 1):
+            self.phases.append(self._phase)
+            self.speeds.append(self.controller.estimate.com_velocity[0])
+
+    def on_state(self, tick) -> None:
+        pass
+
+    def reason(self, tick) -> str | None:
+        done = self._phase is not None and self._phase >= 2 * np.pi * (self.cycles + 1)
+        return f"{self.cycles} gait cycles measured" if done else None
+
+
+def measure_gait_profile(robot: RobotModel, hw: SafetyLayer, speed: float = 0.2, cycles: int = 6, bins: int = 32,
+                         out: Path | None = None, log: Callable[[str], None] = print, control_dt: float = 0.005,
+                         progress: bool = False) -> GaitProfile:
     if not (np.isfinite(speed) and 0.05 <= speed <= 0.3):
         raise ValueError(f"speed = {speed} m/s is outside the allowed range [0.05, 0.3]")
     if not (isinstance(cycles, int) and 2 <= cycles <= 50):
         raise ValueError(f"cycles = {cycles!r} must be an integer in [2, 50]")
-    hw = MujocoBackend(robot, control_dt)
     hw.configure()
     hw.activate()
     state = hw.read()
     controller = WalkingController(robot, state, None, control_dt)
-    wpg = controller.wpg
+    recorder = PhaseSpeedRecorder(controller, speed, cycles)
     metrics = RunMetrics(robot.joint_names, robot.effort, FallCriterion(float(state.base_pos[2])))
-    phases, speeds = [], []
+    expected = controller.params.start_transfer + 2 * (cycles + 1) * controller.params.step_period
+    bar = ProgressBar(expected, progress)
+    loop = ControlLoop([hw], [controller], control_dt, recorders=[MetricsRecorder([metrics]), recorder, bar],
+                       stops=[Fell([metrics]), recorder, TimeLimit(2 * expected + 10.0, "the gait cycles did not end")])
     try:
-        while True:
-            t = controller.k * control_dt
-            if controller.sample_due:
-                wpg.set_velocity(speed, 0.0, 0.0)
-            phase = wpg.gait_phase(t - wpg.sample_start) if controller.k else None
-            hw.write(controller.step(state))
-            state = hw.read()
-            metrics.update(state)
-            if metrics.fell:
-                raise RuntimeError(f"the robot fell while measuring its gait profile: {metrics.fall_reason}")
-            if phase is not None and 2 * np.pi <= phase < 2 * np.pi * (cycles + 1):
-                phases.append(phase)
-                speeds.append(controller.estimate.com_velocity[0])
-            if phase is not None and phase >= 2 * np.pi * (cycles + 1):
-                break
+        result = loop.run([state])
     finally:
-        hw.close()
+        bar.close()
+    if metrics.fell or recorder.reason(None) is None:
+        raise RuntimeError(f"measuring the gait profile failed: {result.stop_reason}")
     omega = np.pi / controller.params.step_period
-    profile = GaitProfile(binned_speed(np.array(phases), np.array(speeds), bins), speed, float(omega),
-                          f"measured in MuJoCo: robot-ctrl crowd gait-profile --speed {speed} --cycles {cycles}")
+    profile = GaitProfile(binned_speed(np.array(recorder.phases), np.array(recorder.speeds), bins), speed,
+                          float(omega), f"measured in MuJoCo: robot-ctrl crowd gait-profile --speed {speed} --cycles {cycles}")
     log(f"{robot.name}: forward CoM speed over the gait cycle min {profile.speed.min():.3f}, "
         f"mean {profile.speed.mean():.3f}, max {profile.speed.max():.3f} m/s at {speed} m/s, ω = {omega:.3f} rad/s")
     if out is not None:

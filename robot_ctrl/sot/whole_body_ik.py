@@ -16,14 +16,13 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
+from robot_ctrl.geometry import SIDES
 from robot_ctrl.robot.model import RobotModel
 from robot_ctrl.sot.com_task import ComTask
 from robot_ctrl.sot.frame_task import FrameTask
 from robot_ctrl.sot.joint_limits import JointLimits
 from robot_ctrl.sot.posture_task import PostureTask
 from robot_ctrl.sot.solver import HierarchicalQP
-
-SIDES = ("left", "right")
 
 
 def hand_tool_dofs(robot: RobotModel) -> np.ndarray:

@@ -41,8 +41,9 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from robot_ctrl import ROOT
+from robot_ctrl.geometry.minimum_jerk import minimum_jerk
 from robot_ctrl.robot.model import RobotModel
-from robot_ctrl.scenarios.minimum_jerk import minimum_jerk
 from robot_ctrl.sot.whole_body_ik import WholeBodyIK
 
 FORMAT_VERSION = 1
@@ -138,7 +139,7 @@ class DemonstrationSet:
 
 
 def default_dataset_path(robot: str) -> Path:
-    return Path(__file__).resolve().parents[2] / "models" / f"{robot}_walk_reach_demos.npz"
+    return ROOT / "models" / f"{robot}_walk_reach_demos.npz"
 
 
 # Nominal action timing and the training grid, robot scale: human lengths x 0.45, durations x 1.5

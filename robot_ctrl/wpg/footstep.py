@@ -7,26 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-SIDES = ("left", "right")
-
-
-def other(side: str) -> str:
-    return "right" if side == "left" else "left"
-
-
-def wrap_angle(angle: float) -> float:
-    """``angle`` [rad] wrapped to (−π, π]."""
-    return float(np.arctan2(np.sin(angle), np.cos(angle)))
-
-
-def yaw_of(rotation_matrix: np.ndarray) -> float:
-    """Heading [rad] of a 3×3 rotation (its x axis projected on the floor)."""
-    return float(np.arctan2(rotation_matrix[1, 0], rotation_matrix[0, 0]))
-
-
-def rotation(yaw: float) -> np.ndarray:
-    c, s = np.cos(yaw), np.sin(yaw)
-    return np.array([[c, -s], [s, c]])
+from robot_ctrl.geometry import other, rotation
 
 
 @dataclass(frozen=True)

@@ -27,11 +27,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robot_ctrl.wpg.footstep import Footstep, FootRef, other, rotation, wrap_angle
+from robot_ctrl.geometry import GRAVITY, other, rotation, wrap_angle
+from robot_ctrl.geometry.support_polygon import SupportPolygon
+from robot_ctrl.wpg.footstep import FootRef, Footstep
 from robot_ctrl.wpg.lipm import com_at
 from robot_ctrl.wpg.mpc import MpcInfeasible, MpcProblem, MpcSolution, Reach, SampleSupport, WalkingMPC
 from robot_ctrl.wpg.params import WalkParams
-from robot_ctrl.wpg.support_polygon import SupportPolygon
 from robot_ctrl.wpg.swing import SwingTrajectory
 
 
@@ -89,6 +90,9 @@ def _blend(a: FootRef, b: FootRef, s: float) -> FootRef:
 
 class WalkingPatternGenerator:
     def __init__(self, params: WalkParams, left: Footstep, right: Footstep, com_xy: np.ndarray):
+        if not params.resolved:
+            raise ValueError("the pattern generator needs WalkParams with the robot's com_height, foot size and "
+                             "step_width (WalkParams.for_robot)")
         self.p = params
         self.mpc = WalkingMPC(params)
         self.t = 0.0  # start time of the current sample [s]
@@ -355,7 +359,7 @@ class WalkingPatternGenerator:
         its own trajectory."""
         sol, p = self.solution, self.p
         cx, cy, _, _ = self._sample_state
-        h_g = p.com_height / 9.81
+        h_g = p.com_height / GRAVITY
         phase, phase_time, stance, swing, scale, _ = self._sample_phase
         segments = self._preview_segments
         out = []
@@ -397,7 +401,7 @@ class WalkingPatternGenerator:
         solved sample."""
         cx, cy, jx, jy = self._sample_state
         sx, sy = com_at(cx, jx, tau), com_at(cy, jy, tau)
-        h_g = self.p.com_height / 9.81
+        h_g = self.p.com_height / GRAVITY
         phase, phase_time, stance, swing, scale, _ = self._sample_phase
         positions, yaws, velocities, contact = {}, {}, {}, {}
         for side in ("left", "right"):

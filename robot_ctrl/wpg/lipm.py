@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-GRAVITY = 9.81  # [m/s²]
+from robot_ctrl.geometry import GRAVITY
 
 
 def transition(T: float) -> tuple[np.ndarray, np.ndarray]:

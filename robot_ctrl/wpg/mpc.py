@@ -15,7 +15,7 @@ Supports, references and anchors are affine in F (``FootRef``), so everything is
 
 QP interface: CasADi ``conic``, plugin chosen by measurement (``benchmarks/bench_wpg.py --solvers``;
 36 variables, 140 dense constraint rows, a 0.25 m/s walk with turning): daqp and qpOASES solved in
-the same median time (≈ 0.3 ms for the QP itself), daqp with the lower p99 and without qpOASES's
+the same median time, daqp with the lower p99 and without qpOASES's
 licence banner on stdout; osqp's answers violated the ZMP constraints by up to 1.6e-5 m (ADMM
 tolerance), and hpipm's interface rejected the dense constraint pattern. Hence daqp, a dual
 active-set solver for small dense QPs (``WalkParams.solver`` selects another).
@@ -28,7 +28,8 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from robot_ctrl.wpg.footstep import FootRef, rotation
+from robot_ctrl.geometry import rotation
+from robot_ctrl.wpg.footstep import FootRef
 from robot_ctrl.wpg.lipm import horizon_matrices
 from robot_ctrl.wpg.params import WalkParams
 
@@ -125,7 +126,7 @@ class WalkingMPC:
     def solve(self, prob: MpcProblem) -> MpcSolution:
         self._set_sample_time(prob.sample_time or self.p.sample_time)
         H, g, A, lba, uba = self.assemble(prob)
-        # CasADi converts Python lists about twice as fast as numpy arrays (≈ 0.5 ms per call here).
+        # CasADi converts Python lists faster than numpy arrays.
         res = self.solver(h=ca.DM(self._sp_h, H.ravel(order="F").tolist()), g=g.tolist(),
                           a=ca.DM(self._sp_a, A.ravel(order="F").tolist()), lba=lba.tolist(), uba=uba.tolist(),
                           x0=self._x0.tolist(), lam_a0=self._lam_a0.tolist(), lam_x0=self._lam_x0.tolist())

@@ -1,9 +1,20 @@
-"""WalkParams: timing, geometry and weights of the walking pattern generator (SI units)."""
+"""WalkParams: timing, geometry and weights of the walking pattern generator (SI units).
+
+The robot-dependent fields (``com_height``, ``foot_length``, ``foot_width``, ``step_width``) may be
+left as None: the walking controller derives them from the robot at its start posture
+(:meth:`WalkParams.for_robot`), and refuses values given that contradict it.
+"""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, fields
+
+#: Fields the controller derives from the robot when they are not given.
+ROBOT_FIELDS = ("com_height", "foot_length", "foot_width", "step_width")
+#: A given com_height or step_width may differ this much from the robot's [m].
+MEASURED_TOLERANCE = 0.01
 
 
 @dataclass(frozen=True)
@@ -13,11 +24,11 @@ class WalkParams:
     single_support: float = 0.7  # [s]
     double_support: float = 0.1  # [s]
     start_transfer: float = 0.8  # [s] double support that moves the ZMP onto the first stance foot
-    com_height: float = 0.88  # [m] constant CoM height of the cart-table model
-    foot_length: float = 0.21  # [m] sole rectangle
-    foot_width: float = 0.13
+    com_height: float | None = None  # [m] constant CoM height of the cart-table model (above the soles)
+    foot_length: float | None = None  # [m] sole rectangle the ZMP is kept in
+    foot_width: float | None = None
     zmp_margin: float = 0.025  # [m] kept between the ZMP and the sole's edges
-    step_width: float = 0.17  # [m] nominal lateral distance between the sole frames
+    step_width: float | None = None  # [m] nominal lateral distance between the sole frames
     reach_x: tuple[float, float] = (-0.2, 0.3)  # [m] next foot in the stance foot's frame, forward
     reach_y: tuple[float, float] = (0.0, 0.15)  # [m] lateral, beyond step_width (outward +); narrower steps let the knees touch when turning
     max_yaw_step: float = 0.3  # [rad] yaw change of one footstep
@@ -42,6 +53,8 @@ class WalkParams:
             "max_yaw_step": (0.0, 1.5), "swing_apex": (0.0, 0.5), "zmp_margin": (0.0, 0.2),
         }
         for f in fields(self):
+            if f.name in ROBOT_FIELDS and getattr(self, f.name) is None:
+                continue
             if f.name in checks:
                 lo, hi = checks[f.name]
                 value = getattr(self, f.name)
@@ -52,5 +65,29 @@ class WalkParams:
             if abs(ratio - round(ratio)) > 1e-9:
                 raise ValueError(f"WalkParams.{name} = {getattr(self, name)} s must be a multiple of "
                                  f"sample_time = {self.sample_time} s")
-        if 2 * self.zmp_margin >= min(self.foot_length, self.foot_width):
+        if self.resolved and 2 * self.zmp_margin >= min(self.foot_length, self.foot_width):
             raise ValueError(f"WalkParams.zmp_margin = {self.zmp_margin} m leaves no room inside the sole")
+
+    @property
+    def resolved(self) -> bool:
+        """Every robot-dependent field has a value."""
+        return all(getattr(self, name) is not None for name in ROBOT_FIELDS)
+
+    def for_robot(self, com_height: float, foot_length: float, foot_width: float, step_width: float) -> "WalkParams":
+        """These parameters with the robot's values where none were given. A given ``com_height`` or
+        ``step_width`` must match the robot's start posture (the controller holds that CoM height
+        and plans from those feet) within ``MEASURED_TOLERANCE``; a given sole may not be larger
+        than the robot's."""
+        measured = {"com_height": com_height, "foot_length": foot_length, "foot_width": foot_width,
+                    "step_width": step_width}
+        for name, value in measured.items():
+            given = getattr(self, name)
+            if given is None:
+                continue
+            if name in ("foot_length", "foot_width"):
+                if given > value + 1e-9:
+                    raise ValueError(f"WalkParams.{name} = {given} m is larger than the robot's sole ({value:.3f} m)")
+            elif abs(given - value) > MEASURED_TOLERANCE:
+                raise ValueError(f"WalkParams.{name} = {given} m contradicts the robot's start posture "
+                                 f"({value:.3f} m, tolerance {MEASURED_TOLERANCE} m): leave it unset to derive it")
+        return dataclasses.replace(self, **{k: v for k, v in measured.items() if getattr(self, k) is None})

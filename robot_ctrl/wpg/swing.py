@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from robot_ctrl.wpg.footstep import Footstep, wrap_angle
+from robot_ctrl.geometry import wrap_angle
+from robot_ctrl.wpg.footstep import Footstep
 
 
 def quintic_coefficients(duration: float, p0: np.ndarray, v0: np.ndarray, a0: np.ndarray, p1: np.ndarray) -> np.ndarray:

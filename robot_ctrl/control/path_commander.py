@@ -1,0 +1,55 @@
+"""PathCommander: steers a walking controller along a :class:`WalkGoal`'s path.
+
+At every pattern-generator sample it hands the controller the :class:`PathFollower`'s velocity for
+the planned base pose (the plan's CoM carried back by the CoM's offset from the base at the start),
+and, once the follower is done, the final footsteps: the start stance carried to the goal pose.
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+
+from robot_ctrl.control.path_follower import PathFollower, WalkGoal
+from robot_ctrl.control.walking_controller import PlanSample, WalkingController
+from robot_ctrl.geometry import SIDES, rotation
+from robot_ctrl.wpg.footstep import Footstep
+
+
+class PathCommander:
+    def __init__(self, controller: WalkingController, goal: WalkGoal, start: np.ndarray,
+                 log: Callable[[str], None] = print):
+        """``start``: world (x, y, yaw) of the base at the start: the path's origin."""
+        self.controller, self.goal, self.log = controller, goal, log
+        to_base = rotation(start[2]).T
+        self.com_offset = to_base @ (controller.plan_sample().com_xy - start[:2])  # base frame
+        self.feet_offset = {s: to_base @ (f.xy - start[:2]) for s, f in controller.footsteps().items()}
+        self.follower = PathFollower(goal, start, tolerance=(0.03, 0.03))
+        self.goal_base = self.follower.world_pose(goal.pose_at(goal.length))
+        controller.on_sample(self._steer)
+
+    @property
+    def done(self) -> bool:
+        return self.follower.done
+
+    @property
+    def time_limit(self) -> float:
+        """When a walk of this path has clearly failed to end [s]: the path's own duration, the
+        follower's settling time and 10 s to stop and stand."""
+        return self.follower.end_time + self.follower.settle_time + 10.0
+
+    def begin_tick(self, t: float) -> None:
+        pass
+
+    def _steer(self, sample: PlanSample) -> None:
+        planned_base = np.array([*(sample.com_xy - rotation(sample.heading) @ self.com_offset), sample.heading])
+        was_done = self.follower.done
+        velocity = self.follower.velocity(sample.t, planned_base)
+        if self.follower.done and not was_done:
+            goal = self.goal_base
+            self.controller.stop_at(*(Footstep(s, *(goal[:2] + rotation(goal[2]) @ self.feet_offset[s]), float(goal[2]))
+                                      for s in SIDES))
+            self.log(f"t = {sample.t:6.2f} s  path done, stopping at the goal")
+        elif not self.follower.done:
+            self.controller.set_velocity(*velocity)

@@ -1,0 +1,46 @@
+"""Planar frames on the floor: headings, 2D rotations, the two sides of a biped, gravity.
+
+Right-handed world frame, z up; a heading (yaw) is the angle of a frame's x axis projected on the
+floor, counter-clockwise from the world x axis [rad].
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+SIDES = ("left", "right")
+GRAVITY = 9.81  # [m/s²], magnitude, along −z
+
+
+def other(side: str) -> str:
+    return "right" if side == "left" else "left"
+
+
+def wrap_angle(angle: float) -> float:
+    """``angle`` [rad] wrapped to (−π, π]."""
+    return float(np.arctan2(np.sin(angle), np.cos(angle)))
+
+
+def yaw_of(rotation_matrix: np.ndarray) -> float:
+    """Heading [rad] of a 3×3 rotation (its x axis projected on the floor)."""
+    return float(np.arctan2(rotation_matrix[1, 0], rotation_matrix[0, 0]))
+
+
+def rotation(yaw: float) -> np.ndarray:
+    """2×2 rotation by ``yaw`` [rad]: ``R(ψ) = [[cos ψ, −sin ψ], [sin ψ, cos ψ]]``."""
+    c, s = np.cos(yaw), np.sin(yaw)
+    return np.array([[c, -s], [s, c]])
+
+
+def relative_pose(pose: np.ndarray, origin: np.ndarray) -> np.ndarray:
+    """Planar ``pose`` (x, y, yaw), world frame, expressed in the frame of ``origin`` (x, y, yaw):
+    ``(R(ψ₀)ᵀ (p − p₀), wrap(ψ − ψ₀))``."""
+    xy = rotation(origin[2]).T @ (np.asarray(pose[:2]) - origin[:2])
+    return np.array([xy[0], xy[1], wrap_angle(pose[2] - origin[2])])
+
+
+def base_pose_xy_yaw(base_pos: np.ndarray, base_quat_xyzw: np.ndarray) -> np.ndarray:
+    """Planar pose (x, y, yaw) of a base from its world position and quaternion (x, y, z, w)."""
+    x, y, z, w = base_quat_xyzw
+    yaw = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+    return np.array([base_pos[0], base_pos[1], yaw])
