@@ -160,7 +160,7 @@ def _crowd_graph(args: argparse.Namespace):
             return CouplingGraph.from_laplacian(np.loadtxt(args.laplacian, ndmin=2))
         if args.adjacency:
             return CouplingGraph.from_adjacency(np.loadtxt(args.adjacency, ndmin=2))
-        return CouplingGraph.named(args.graph, args.n)
+        return CouplingGraph.named(args.graph, args.n, args.weight)
     except (OSError, ValueError) as exc:
         raise ConfigError(f"crowd: {exc}") from exc
 
@@ -189,6 +189,19 @@ def _crowd_certify(args: argparse.Namespace) -> int:
         for c in conditions:
             print(c.line())
     return 0 if all(c.holds for c in conditions) else 1
+
+
+def _crowd_audit(args: argparse.Namespace) -> int:
+    from robot_ctrl.crowd.audit import audit
+
+    if not (1 <= args.graphs <= 100000) or not (2 <= args.min_n <= args.max_n <= 60):
+        raise ConfigError(f"crowd audit: --graphs {args.graphs} must be in [1, 100000] and 2 <= --min-n "
+                          f"{args.min_n} <= --max-n {args.max_n} <= 60")
+    print("certificate     holds  exact  certified/worst case: median    min    max  optimistic")
+    for name, row in audit(args.graphs, (args.min_n, args.max_n), args.seed).items():
+        stats = "  ".join(f"{row[k]:6.3f}" if row[k] is not None else "     -" for k in ("median", "min", "max"))
+        print(f"{name:15s} {row['holds']:5d}  {row['exact']:5d}  {' ' * 22}{stats}  {row['optimistic']:10d}")
+    return 0
 
 
 def _crowd_run(args: argparse.Namespace) -> int:
@@ -412,6 +425,7 @@ def _add_walk(sub, sim) -> None:
 def _graph_args(p) -> None:
     p.add_argument("--graph", choices=("all", "ring", "chain", "star"), default="all", help="named topology")
     p.add_argument("--n", type=int, default=8, help="number of agents (named topologies)")
+    p.add_argument("--weight", type=float, default=1.0, help="link weight of the named topology (> 0)")
     p.add_argument("--laplacian", type=Path, help="Laplacian matrix as a text file (any graph)")
     p.add_argument("--adjacency", type=Path, help="adjacency (link weight) matrix as a text file")
 
@@ -433,6 +447,18 @@ def _add_crowd_certify(sub) -> None:
     p.add_argument("--g-profile", type=Path, help="speed profile g(phi) samples over a cycle (text file)")
     p.add_argument("--json", action="store_true", help="machine-readable output")
     p.set_defaults(run=_crowd_certify)
+
+
+def _add_crowd_audit(sub) -> None:
+    p = sub.add_parser("audit", help="compare the certificates with brute-force worst cases on random graphs",
+                             description="Random connected weighted graphs (symmetric and not): each certified rate "
+                                         "against the exhaustive worst case (step frequency and length, N <= 12) or "
+                                         "sampled worst cases; prints certified/worst-case ratios (1 = exact).")
+    p.add_argument("--graphs", type=int, default=1000, help="random graphs")
+    p.add_argument("--min-n", type=int, default=2, help="smallest group")
+    p.add_argument("--max-n", type=int, default=12, help="largest group")
+    p.add_argument("--seed", type=int, default=0, help="random seed")
+    p.set_defaults(run=_crowd_audit)
 
 
 def _add_crowd_run(sub) -> None:
@@ -488,6 +514,7 @@ def _add_crowd(sub, sim) -> None:
     crowd = sub.add_parser("crowd", help="coupled gaits: contraction certificates and crowd simulation")
     crowd_sub = crowd.add_subparsers(dest="crowd_command", required=True)
     _add_crowd_certify(crowd_sub)
+    _add_crowd_audit(crowd_sub)
     _add_crowd_run(crowd_sub)
     p = crowd_sub.add_parser("figure", help="reproduce thesis Fig. 4.6 (rate vs k, slope vs N)")
     p.add_argument("--runs", type=int, default=30, help="random initial conditions per point")

@@ -39,7 +39,7 @@ def test_numerical_certificate_agrees_with_the_closed_form_on_a_symmetric_graph(
     numeric = by_name(certify(CouplingConfig(CouplingGraph.from_adjacency(A), k=1.5)))["hopf_diffusive"]
     closed = by_name(certify(CouplingConfig(CouplingGraph.named("ring", 6), k=1.5)))["hopf_diffusive"]
     assert numeric.method.startswith("numerical") and closed.method.startswith("closed form")
-    assert numeric.margin == pytest.approx(closed.margin, abs=1e-9)
+    assert numeric.margin == pytest.approx(closed.margin, abs=1e-9) and numeric.exact and closed.exact
 
 
 def test_disconnected_and_invalid_graphs_are_reported():
@@ -102,9 +102,10 @@ def test_schoener_dose_region_and_rate():
     # The closed-form rate bounds the numerical one of the same graph given as a matrix.
     A = -graph.laplacian
     np.fill_diagonal(A, 0.0)
-    A[0, 1] *= 1.5  # asymmetric: numerical certificate
-    numeric = by_name(certify(CouplingConfig(CouplingGraph.from_adjacency(A), k_sine=0.8, heading_spread=spread)))
-    assert numeric["schoener_dose"].method.startswith("numerical") and numeric["schoener_dose"].holds
+    A[0, 1] *= 1.5  # asymmetric: the box of coupled cosines
+    boxed = by_name(certify(CouplingConfig(CouplingGraph.from_adjacency(A), k_sine=0.8, heading_spread=spread)))
+    assert "vertices" in boxed["schoener_dose"].method and boxed["schoener_dose"].holds
+    assert not boxed["schoener_dose"].exact and boxed["schoener_dose"].rate <= sd.rate
     assert not by_name(certify(CouplingConfig(graph, k_sine=-0.1)))["schoener_dose"].holds
     goal = by_name(certify(CouplingConfig(graph, m_psi=0.7)))["heading_goal_region"]
     assert goal.holds and goal.rate == pytest.approx(0.7)

@@ -20,14 +20,18 @@ TOPOLOGIES = ("all", "ring", "chain", "star")
 class CouplingGraph:
     laplacian: np.ndarray  # (N, N)
     topology: str | None = None  # named topology, or None for a given matrix
+    weight: float = 1.0  # the uniform link weight of a named topology
 
     @classmethod
     def named(cls, topology: str, n: int, weight: float = 1.0) -> "CouplingGraph":
-        """All-to-all, ring, chain (path) or star (agent 0 in the centre) with unit link weights."""
+        """All-to-all, ring, chain (path) or star (agent 0 in the centre), every link of ``weight`` > 0.
+        For N = 2 every one of them is the single link between the two agents."""
         if topology not in TOPOLOGIES:
             raise ValueError(f"graph {topology!r} is not one of {', '.join(TOPOLOGIES)}")
         if not isinstance(n, (int, np.integer)) or n < 2:
             raise ValueError(f"n = {n!r} must be an integer ≥ 2")
+        if not (np.isfinite(weight) and weight > 0):
+            raise ValueError(f"weight = {weight!r} must be > 0")
         A = np.zeros((n, n))
         if topology == "all":
             A[:] = 1.0
@@ -39,7 +43,7 @@ class CouplingGraph:
         else:
             A[0, 1:] = A[1:, 0] = 1.0
         np.fill_diagonal(A, 0.0)
-        return cls(laplacian_of(weight * A), topology)
+        return cls(laplacian_of(weight * A), topology, float(weight))
 
     @classmethod
     def from_adjacency(cls, adjacency) -> "CouplingGraph":
@@ -106,10 +110,15 @@ class CouplingGraph:
         return float(np.linalg.eigvalsh((self.laplacian + self.laplacian.T) / 2)[-1])
 
     def closed_form_lambda_plus(self) -> float | None:
-        """λ⁺ of thesis Table 4.1 for the named topologies (unit weights), else None."""
-        n = self.n
-        return {"all": float(n), "star": 1.0, "chain": 2 * (1 - np.cos(np.pi / n)),
-                "ring": 2 * (1 - np.cos(2 * np.pi / n))}.get(self.topology)
+        """λ⁺ of thesis Table 4.1 for the named topologies, times their link weight, else None. For
+        N = 2 each topology is one link (λ⁺ = 2 w); Table 4.1's ring and star forms hold from N = 3."""
+        n, w = self.n, self.weight
+        if self.topology is None:
+            return None
+        if n == 2:
+            return 2.0 * w
+        return w * {"all": float(n), "star": 1.0, "chain": 2 * (1 - np.cos(np.pi / n)),
+                    "ring": 2 * (1 - np.cos(2 * np.pi / n))}[self.topology]
 
 
 def laplacian_of(adjacency: np.ndarray) -> np.ndarray:

@@ -1,0 +1,85 @@
+"""Worst cases of contraction conditions over a box of parameters: exact where affordable,
+provably conservative above.
+
+A condition of the form "the projected symmetrized Jacobian ``V J(p)_s Vᵀ`` is negative definite
+for every p in a box" holds with rate ``−sup_p λ_max(V J(p)_s Vᵀ)``. When J is affine in p,
+``λ_max`` of the (symmetric, affine in p) matrix is a convex function of p (a maximum of linear
+functions ``uᵀ M(p) u`` over unit vectors u), so its supremum over the box is attained at a
+vertex: enumerating the ``2^m`` vertices gives the worst case exactly (``EXACT_UP_TO`` parameters).
+Above that, Weyl's inequality ``λ_max(A + B) ≤ λ_max(A) + ‖B‖₂`` around the box centre gives a
+bound that is never optimistic (``[bound]``).
+
+The two Jacobians of the gait couplings (conference paper eq. 2, thesis 4.4.2), with g_i ∈
+[g_min, g_max] the gait profile of agent i (agents at different phases):
+
+- step frequency, ``φ̇ = ω₀ − m (L G(φ) + c)``: ``J = −m L D_g``;
+- step length, ``ż = ω g(φ)(1 − m (L z + c))``: ``J = −m D_g L``.
+
+With ``D_g = ḡ I + D_δ``, |δ_i| ≤ Δ: ``λ_max(V J_s Vᵀ) ≤ −m ḡ λ⁺ + m Δ ‖L‖₂`` (``‖L D_δ‖₂ ≤ Δ ‖L‖₂``).
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+from robot_ctrl.crowd.coupling_graph import complement_basis
+
+EXACT_UP_TO = 12  # parameters enumerated exactly (2^12 = 4096 vertices)
+
+
+def vertices(m: int, low: float, high: float) -> np.ndarray:
+    """All ``2^m`` corners of the box [low, high]^m, one per row."""
+    return np.array(list(itertools.product((low, high), repeat=m)), dtype=float).reshape(-1, m)
+
+
+def projected_symmetric_max(J: np.ndarray) -> np.ndarray:
+    """``λ_max(V J_s Vᵀ)`` of each matrix in a stack (..., n, n), V an orthonormal basis of 1⊥."""
+    V = complement_basis(J.shape[-1])
+    S = (J + np.swapaxes(J, -1, -2)) / 2
+    return np.linalg.eigvalsh(V @ S @ V.T)[..., -1]
+
+
+def profile_coupling_rate(laplacian: np.ndarray, gain: float, g_min: float, g_max: float,
+                          side: str) -> tuple[float, bool]:
+    """``−sup λ_max(V J_s Vᵀ)`` over g ∈ [g_min, g_max]^N for ``J = −gain L D_g`` (``side="right"``,
+    step frequency) or ``J = −gain D_g L`` (``"left"``, step length), and whether it is exact."""
+    if side not in ("left", "right"):
+        raise ValueError(f"side = {side!r} must be 'left' or 'right'")
+    n = laplacian.shape[0]
+    if n <= EXACT_UP_TO:
+        G = vertices(n, g_min, g_max)
+        J = -gain * (laplacian[None] * G[:, None, :] if side == "right" else G[:, :, None] * laplacian[None])
+        return -float(projected_symmetric_max(J).max()), True
+    Ls = (laplacian + laplacian.T) / 2
+    lam = float(np.linalg.eigvalsh(complement_basis(n) @ Ls @ complement_basis(n).T)[0])
+    centre, radius = (g_min + g_max) / 2, (g_max - g_min) / 2
+    return gain * centre * lam - abs(gain) * radius * float(np.linalg.norm(laplacian, 2)), False
+
+
+def sine_coupling_rate(adjacency: np.ndarray, gain: float, spread: float) -> tuple[float, str]:
+    """``−sup λ_max(V J_s Vᵀ)`` of the sine coupling ``ψ̇_i = −k Σ_j A_ij sin(ψ_i − ψ_j)``, whose
+    Jacobian is ``−k L(W)``, ``W_ij = A_ij cos(ψ_i − ψ_j)``, with every coupled cosine in
+    [cos Δ, 1] (the box contains every angle set of spread ≤ Δ, so this is a bound even when the
+    box's vertices are enumerated). The cosines of the pairs coupled in either direction are the
+    box's parameters. Returns the rate and how it was bounded."""
+    n = adjacency.shape[0]
+    pairs = [(i, j) for i in range(n) for j in range(i + 1, n) if adjacency[i, j] > 0 or adjacency[j, i] > 0]
+    low = float(np.cos(spread))
+    if len(pairs) <= EXACT_UP_TO:
+        corners = vertices(len(pairs), low, 1.0)
+        C = np.ones((len(corners), n, n))
+        for column, (i, j) in enumerate(pairs):
+            C[:, i, j] = C[:, j, i] = corners[:, column]
+        W = adjacency[None] * C
+        L = W.sum(axis=2)[:, :, None] * np.eye(n)[None] - W
+        return (-float(projected_symmetric_max(-gain * L).max()),
+                f"the {len(corners)} vertices of the box of coupled cosines [cos Δ, 1]")
+    L = np.diag(adjacency.sum(axis=1)) - adjacency
+    Ls = (L + L.T) / 2
+    V = complement_basis(n)
+    lam = float(np.linalg.eigvalsh(V @ Ls @ V.T)[0])
+    # L(W) = cos Δ L + L(A ∘ E), 0 ≤ E ≤ 1 − cos Δ entrywise: ‖L(A ∘ E)‖₂ ≤ (1 − cos Δ) ‖|L|‖₂.
+    return (gain * (low * lam - (1 - low) * float(np.linalg.norm(np.abs(L), 2))),
+            "Weyl: k (cos Δ λ⁺ − (1 − cos Δ) ‖|L|‖₂)")
