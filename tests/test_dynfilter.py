@@ -150,3 +150,45 @@ def test_preview_ik_reaches_the_planned_feet_com_and_waist(talos):
     upper = [i for i, n in enumerate(talos.joint_names) if n.startswith("arm_")]
     # The posture acts in the tasks' null space: the arms stay near their reference.
     assert np.abs(q[talos.q_index][upper] - posture[upper]).max() < 0.05
+
+
+def test_the_guard_refuses_a_diverging_update_and_returns_smoothly_to_the_plan(talos):
+    """A plan whose CoM the legs cannot reach (0.4 m ahead of the feet) gives the preview a
+    multibody ZMP metres off: the update is refused, counted, and the offset led back towards zero
+    from where it was, within the bound."""
+    from dataclasses import replace
+
+    from robot_ctrl.dynfilter.dynamic_filter import MAX_OFFSET, filter_request
+
+    controller = standing_controller(talos)
+    wpg, p = controller.wpg, controller.params
+    dynfilter = DynamicFilter(talos, p.horizon, p.com_height, "full", passes=2)
+    for _ in range(6):  # a sound plan first: some offset to return from
+        wpg.set_velocity(0.25, 0.0, 0.0)
+        wpg.update()
+        dynfilter.update(wpg, controller.ik.q, controller.com_z, controller.sole_height, controller.upper_body, 0.0)
+    assert dynfilter.fallbacks == 0
+    wpg.update()
+    request = filter_request("full", wpg, controller.ik.q, controller.com_z, controller.sole_height,
+                             controller.upper_body, 0.0)
+    far = replace(request, preview=[replace(s, com=s.com + [0.4, 0.0]) for s in request.preview])
+    before = dynfilter.correction.offsets(request.sample_duration)[1]  # sample 1 is the next sample's start
+    dynfilter.refine(far)
+    assert dynfilter.fallbacks == 1 and dynfilter.pass_rms[0] > 0.06
+    offsets = dynfilter.correction.offsets(request.sample_duration)
+    np.testing.assert_allclose(offsets[0], before, atol=1e-12)  # carried on, no jump
+    assert np.abs(offsets).max() <= MAX_OFFSET and np.abs(offsets[-1]).max() < np.abs(offsets[0]).max() + 1e-6
+
+
+def test_the_preview_walks_its_unplanned_swing_foot_ahead(talos):
+    """At 0.5 m/s the horizon holds a swing whose landing the MPC does not plan yet: the preview
+    repeats the last step instead of putting the foot back where it lifted off."""
+    controller = standing_controller(talos)
+    wpg = controller.wpg
+    for _ in range(30):
+        wpg.set_velocity(0.5, 0.0, 0.0)
+        wpg.update()
+    preview = wpg.preview()
+    com_x = preview[-1].com[0]
+    rear = min(f[0][0] for f in preview[-1].feet.values())
+    assert com_x - rear < 0.35  # the legs keep up with the CoM (it was 0.52 m with the foot left behind)

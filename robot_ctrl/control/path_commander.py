@@ -34,10 +34,19 @@ class PathCommander:
         return self.follower.done
 
     @property
+    def duration(self) -> float:
+        """How long walking the path takes [s]: the follower's progress profile, or for side-steps the
+        gait's own lateral limit if it is slower (one reach_y of sideways progress per gait cycle)."""
+        if not self.goal.lateral:
+            return self.follower.end_time
+        p = self.controller.params
+        return max(self.follower.end_time, abs(self.goal.lateral) / (p.reach_y[1] / (2 * p.step_period)))
+
+    @property
     def time_limit(self) -> float:
-        """When a walk of this path has clearly failed to end [s]: the path's own duration, the
+        """When a walk of this path has clearly failed to end [s]: the path's duration, the
         follower's settling time and 10 s to stop and stand."""
-        return self.follower.end_time + self.follower.settle_time + 10.0
+        return self.duration + self.follower.settle_time + 10.0
 
     def begin_tick(self, t: float) -> None:
         pass

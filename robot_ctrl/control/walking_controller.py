@@ -140,6 +140,11 @@ class WalkingController:
         return self.wpg.touchdowns
 
     @property
+    def filter_fallbacks(self) -> int:
+        """Dynamic-filter updates its guard refused (the unfiltered plan used instead)."""
+        return self.dynfilter.fallbacks
+
+    @property
     def solve_times(self) -> list[float]:
         """Wall-clock time of each MPC solve [s]."""
         return self.wpg.solve_times

@@ -36,6 +36,7 @@ class FilterResult:
     jerks: np.ndarray  # (N, 2)
     last_error: np.ndarray
     pass_rms: list[float]
+    fallbacks: int  # updates the guard refused so far
 
 
 def _serve(connection, robot: RobotModel, horizon: int, com_height: float, mode: str, passes: int) -> None:
@@ -51,7 +52,8 @@ def _serve(connection, robot: RobotModel, horizon: int, com_height: float, mode:
     while (request := connection.recv()) is not None:
         dynfilter.refine(request)
         c = dynfilter.correction
-        connection.send(FilterResult(c.state.copy(), c.jerks.copy(), dynfilter.last_error, dynfilter.pass_rms))
+        connection.send(FilterResult(c.state.copy(), c.jerks.copy(), dynfilter.last_error, dynfilter.pass_rms,
+                                     dynfilter.fallbacks))
     connection.close()
 
 
@@ -69,6 +71,7 @@ class DynamicFilterWorker:
         self.correction = PreviewCorrection(horizon, com_height)
         self.last_error: np.ndarray | None = None
         self.pass_rms: list[float] = []
+        self.fallbacks = 0
         self._pending: float | None = None  # sample duration of the request in flight
         # fork shares the loaded robot model; other platforms pickle it to a fresh interpreter.
         context = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
@@ -85,7 +88,7 @@ class DynamicFilterWorker:
             result = self._receive()
             self.correction.state, self.correction.jerks = result.state, result.jerks
             self.correction.advance(self._pending)
-            self.last_error, self.pass_rms = result.last_error, result.pass_rms
+            self.last_error, self.pass_rms, self.fallbacks = result.last_error, result.pass_rms, result.fallbacks
         request = filter_request(self.mode, wpg, q_ref, com_z, sole_height, posture, t0)
         try:
             self._connection.send(request)

@@ -61,6 +61,11 @@ class PreviewCorrection:
         rhs = A @ (target - m.Pzs @ self.state) - self.r_c * m.Ppu.T @ (m.Pps @ self.state)
         self.jerks = np.linalg.solve(normal, rhs)
 
+    def return_to_zero(self, T: float) -> None:
+        """Jerks that lead the offset smoothly back to zero from its current state (the unfiltered
+        plan): the Newton step towards no ZMP change at all."""
+        self.newton_step(self.zmp_change(T), T)
+
     def advance(self, T: float) -> None:
         """Move the state one sample ahead and shift the jerk plan (warm start of the next sample)."""
         for axis in range(2):

@@ -58,7 +58,7 @@ def run_walk(robot: RobotModel, hw: SafetyLayer, goal: WalkGoal, settings: WalkS
     walk = WalkRecorder(controller, WalkLog(robot.mass * GRAVITY, start, (foot.length, foot.width),
                                             s.grf_limit_ratio), start, log)
     stood = HeldFor(lambda: controller.standing and path.done, STAND_AFTER, "stood at the goal")
-    bar = ProgressBar(path.follower.end_time + STAND_AFTER + 1.0, progress)
+    bar = ProgressBar(path.duration + STAND_AFTER + 1.0, progress)
     loop = ControlLoop([hw], [controller], dt, [path], [MetricsRecorder([metrics]), walk, bar],
                        [Fell([metrics]), stood, TimeLimit(path.time_limit, "did not finish the path")])
     try:
@@ -70,6 +70,7 @@ def run_walk(robot: RobotModel, hw: SafetyLayer, goal: WalkGoal, settings: WalkS
     report = metrics.report() | {"robot": robot.name} | walk.report(result.states[0], goal) | dict(
         stood_s=round(stood.held(result.states[0].t), 3), stabilizer=s.stabilize, arms=s.arms.value,
         dynfilter=s.dynfilter.value, dynfilter_passes=s.dynfilter_passes if filtered else 0,
+        dynfilter_fallbacks=controller.filter_fallbacks,
         dynfilter_worker=s.dynfilter_worker and filtered, safety=hw.report(), rtf=round(result.rtf, 3),
         control_rate_hz=round(1.0 / dt, 3))
     log(f"fell: {str(report['fell']).lower()}  final base (x, y, yaw) {report['final_base_xy_yaw']} vs commanded "

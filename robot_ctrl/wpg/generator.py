@@ -425,14 +425,20 @@ def _swing_point(segments: list[_Segment], k: int, side: str, F: np.ndarray, s: 
                  fallback: Footstep) -> tuple[np.ndarray, float]:
     """Swing foot ``side`` at fraction ``s`` of single-support segment ``k``: from where it stood in
     the segment before to where it lands in the segment after (min-jerk in the plane and yaw,
-    ``16 apex s²(1 − s)²`` in height)."""
+    ``16 apex s²(1 − s)²`` in height). A landing the plan does not hold yet (beyond its footstep
+    variables) repeats the last step: the lift foot mirrored through the stance foot's heading line
+    and carried the step's length ahead, so the preview's legs keep up with its CoM."""
     def where(seg):
         return next(((f.position(F), f.yaw) for f in seg.feet if f.side == side), None)
 
     lift = where(segments[k - 1]) if k > 0 else None
     land = where(segments[k + 1]) if k + 1 < len(segments) else None
     lift = lift or (fallback.xy, fallback.yaw)
-    land = land or lift
+    if land is None:
+        stance = segments[k].feet[0]
+        R = rotation(stance.yaw)
+        step = R.T @ (stance.position(F) - lift[0])  # lift → stance, in the stance foot's frame
+        land = (stance.position(F) + R @ np.array([step[0], -step[1]]), stance.yaw)
     s = min(max(s, 0.0), 1.0)
     blend = s**3 * (10 - 15 * s + 6 * s * s)
     xy = lift[0] + blend * (land[0] - lift[0])
