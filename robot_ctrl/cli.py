@@ -41,9 +41,11 @@ def _simulation(args: argparse.Namespace):
     from robot_ctrl.robot.model import load_robot
 
     _check_outputs(args)
+    disturbances = _disturbances(args)
     robot = load_robot(args.robot)
     try:
-        return robot, open_hardware(args.hw, robot, args.bus_config, viewer=args.viewer, video=args.video)
+        return robot, disturbances, open_hardware(args.hw, robot, args.bus_config, viewer=args.viewer,
+                                                  video=args.video, disturbances=disturbances)
     except (FileNotFoundError, ValueError) as exc:
         raise ConfigError(f"--hw {args.hw}: {exc}") from exc
 
@@ -57,9 +59,10 @@ def _finish(args: argparse.Namespace, report: dict) -> int:
 def _balance(args: argparse.Namespace) -> int:
     from robot_ctrl.scenarios.balance import run_balance
 
-    robot, hardware = _simulation(args)
+    robot, disturbances, hardware = _simulation(args)
     with hardware as hw:
-        report = run_balance(robot, hw, out_dir=args.out, log=_log, progress=not args.quiet)
+        report = run_balance(robot, hw, out_dir=args.out, log=_log, progress=not args.quiet,
+                             disturbances=disturbances)
     return _finish(args, report)
 
 
@@ -79,9 +82,10 @@ def _walk(args: argparse.Namespace) -> int:
     settings = WalkSettings(stabilize=not args.no_stabilizer, arms=ArmMotion(args.arms),
                             dynfilter=FilterMode(args.dynfilter), dynfilter_passes=args.dynfilter_passes,
                             dynfilter_worker=not args.dynfilter_inline)
-    robot, hardware = _simulation(args)
+    robot, disturbances, hardware = _simulation(args)
     with hardware as hw:
-        report = run_walk(robot, hw, goal, settings, out_dir=args.out, log=_log, progress=not args.quiet)
+        report = run_walk(robot, hw, goal, settings, out_dir=args.out, log=_log, progress=not args.quiet,
+                          disturbances=disturbances)
     return _finish(args, report)
 
 
@@ -320,13 +324,14 @@ def _crowd_walk(args: argparse.Namespace) -> int:
     from robot_ctrl.scenarios.group_walk import GroupWalk, run_group_walk
 
     _check_outputs(args)
+    disturbances = _disturbances(args)
     robot = load_robot(args.robot)
     try:
         group = GroupWalk(n=args.robots, graph=args.graph, k=args.k, m_z=args.mz, m_psi=args.mpsi, speed=args.speed,
                           spacing=args.spacing, coupled_time=args.coupled_time, seed=args.seed,
                           allow_unstable=args.allow_unstable)
         report = run_group_walk(robot, group, args.hw, out_dir=args.out, viewer=args.viewer, video=args.video,
-                                log=_log, progress=not args.quiet)
+                                log=_log, progress=not args.quiet, disturbances=disturbances)
     except ValueError as exc:
         raise ConfigError(f"crowd walk: {exc}") from exc
     return _finish(args, report)
@@ -339,7 +344,7 @@ def _crowd_gait_profile(args: argparse.Namespace) -> int:
     if not (0.05 <= args.speed <= 0.3) or not (2 <= args.cycles <= 50):
         raise ConfigError(f"crowd gait-profile: --speed {args.speed} must be in [0.05, 0.3] m/s and --cycles "
                           f"{args.cycles} in [2, 50]")
-    robot, hardware = _simulation(args)
+    robot, _, hardware = _simulation(args)
     out = args.out or MODELS / f"{robot.name}_gait_profile.json"
     with hardware as hw:
         measure_gait_profile(robot, hw, speed=args.speed, cycles=args.cycles, out=out, log=_log,
@@ -388,7 +393,33 @@ def _simulation_parent(robot: argparse.ArgumentParser) -> argparse.ArgumentParse
     parent.add_argument("--video", type=Path, metavar="FILE.mp4",
                         help="record the run at 30 fps (MuJoCo offscreen renderer; MUJOCO_GL=egl when there is no display)")
     parent.add_argument("--quiet", action="store_true", help="no progress bar")
+    disturb = parent.add_argument_group("disturbances of the simulated robot (docs/robustness.md)")
+    disturb.add_argument("--push", action="append", default=[], metavar="TIME:ANGLE_DEG:IMPULSE",
+                         help="a 0.1 s horizontal push on the base from TIME [s], direction ANGLE_DEG in the start "
+                              "frame (0 forward, 90 left), IMPULSE N·s per kg of robot mass, 0..2; repeatable")
+    disturb.add_argument("--mass-scale", type=float, default=1.0, help="every body's mass and inertia, 0.5..2")
+    disturb.add_argument("--friction-scale", type=float, default=1.0, help="sliding friction of floor and feet, 0.05..3")
+    disturb.add_argument("--latency-ms", type=float, default=0.0,
+                         help="command delay [ms], a multiple of the 5 ms control period, 0..100")
+    disturb.add_argument("--sensor-noise", action="store_true",
+                         help="noisy encoders (1 mrad), IMU attitude (0.5°) and foot F/T (5 N, 0.5 N·m)")
     return parent
+
+
+def _disturbances(args: argparse.Namespace):
+    from robot_ctrl.hw.disturbances import Disturbances, Push
+
+    try:
+        dist = Disturbances(tuple(Push.parse(p) for p in args.push), args.mass_scale, args.friction_scale,
+                            args.latency_ms / 1e3, args.sensor_noise)
+        dist.latency_ticks(0.005)
+    except ValueError as exc:
+        message = str(exc)
+        for name, option in (("mass_scale", "--mass-scale"), ("friction_scale", "--friction-scale"),
+                             ("latency = ", "--latency-ms: latency = "), ("push ", "--push: push ")):
+            message = message.replace(name, option) if not message.startswith("--") else message
+        raise ConfigError(message) from exc
+    return dist
 
 
 def _add_balance(sub, sim) -> None:

@@ -110,7 +110,7 @@ def plot_phases(path: Path, times, phases, dispersion, z, certified_rate, tolera
 
 
 def group_walk_report(robot, g, commander, metrics, safety, touchdowns, conditions, profile, bridge, starts, result,
-                      out_dir, log) -> dict:
+                      out_dir, log, disturbances: dict | None = None) -> dict:
     """The group walk's report (written to ``out_dir/report.json`` with ``phases.png``)."""
     times = np.asarray(commander.times)
     phases = np.asarray(commander.phases, dtype=float).reshape(len(times), g.n)
@@ -134,6 +134,7 @@ def group_walk_report(robot, g, commander, metrics, safety, touchdowns, conditio
         "measured_touchdown_phase_difference_rad": measured,
         "final_position_spread_m": m["final_position_spread"],
         "bridge_saturated_ratio": round(commander.saturated / max(commander.decisions, 1), 4),
+        "disturbances": disturbances,
         "rtf": round(result.rtf, 3),
     }
     log(f"fell: {str(report['fell']).lower()}  phase spread {m['initial_spread']} -> {m['final_spread']} rad, below "

@@ -8,7 +8,8 @@
 - ``dynamixel-emulated``: ``DynamixelBackend`` behind a ``SafetyLayer``, over a pseudo-terminal to a
   ``DynamixelEmulator`` driving the MuJoCo simulation.
 
-Every kind comes behind a ``SafetyLayer``: what a controller sends reaches the simulated servos as it
+``disturbances`` (pushes, model mismatch, latency, sensor noise: ``hw/disturbances.py``) act on the
+simulated robot, on the emulated buses' too. Every kind comes behind a ``SafetyLayer``: what a controller sends reaches the simulated servos as it
 would reach real ones, and the layer's interventions go to the run's report. ``video`` records an MP4
 of the simulated robot (``MujocoWorld``). The emulated setups read the bus mapping from ``configs/hw/<robot>_mit_can.yaml`` or
 ``<robot>_dynamixel.yaml`` (or ``bus_config``), and use the simulation's clock for the safety layer's
@@ -24,6 +25,7 @@ from pathlib import Path
 from typing import Iterator
 
 from robot_ctrl.hw.bus_config import load_bus_config
+from robot_ctrl.hw.disturbances import Disturbances
 from robot_ctrl.hw.mujoco_backend import MujocoBackend
 from robot_ctrl.hw.mujoco_world import MujocoWorld
 from robot_ctrl.hw.robot_process import RobotProcess
@@ -34,19 +36,20 @@ from robot_ctrl.robot.model import RobotModel
 
 @contextmanager
 def open_hardware(kind: HardwareKind | str, robot: RobotModel, bus_config: str | None = None, viewer: bool = False,
-                  control_dt: float = 0.005, video: Path | None = None) -> Iterator[SafetyLayer]:
+                  control_dt: float = 0.005, video: Path | None = None,
+                  disturbances: Disturbances = Disturbances()) -> Iterator[SafetyLayer]:
     """The adapter for ``kind``; emulators are started before and stopped after the block."""
     kind = HardwareKind.parse(kind)
     if kind is HardwareKind.MUJOCO:
-        robot_process = RobotProcess(functools.partial(MujocoBackend, robot, control_dt, viewer=viewer, video=video),
-                                     robot.nj, robot.name)
+        robot_process = RobotProcess(functools.partial(MujocoBackend, robot, control_dt, viewer=viewer, video=video,
+                                                       disturbances=disturbances), robot.nj, robot.name)
         hw = SafetyLayer(robot_process, SafetyLimits.for_simulation(robot, control_dt), clock=None)
         try:
             yield hw
         finally:
             hw.close()
         return
-    plant = MujocoBackend(robot, control_dt, viewer=viewer, video=video)
+    plant = MujocoBackend(robot, control_dt, viewer=viewer, video=video, disturbances=disturbances)
     limits = SafetyLimits.from_robot(robot, control_dt)
     if kind is HardwareKind.MIT_CAN_EMULATED:
         from robot_ctrl.hw.mit_can_backend import MitCanBackend
@@ -73,18 +76,20 @@ def open_hardware(kind: HardwareKind | str, robot: RobotModel, bus_config: str |
 
 @contextmanager
 def open_group_hardware(kind: HardwareKind | str, robot: RobotModel, base_poses: list[tuple[float, float, float]],
-                        viewer: bool = False, control_dt: float = 0.005,
-                        video: Path | None = None) -> Iterator[tuple[MujocoWorld, list[SafetyLayer]]]:
+                        viewer: bool = False, control_dt: float = 0.005, video: Path | None = None,
+                        disturbances: Disturbances = Disturbances()) -> Iterator[tuple[MujocoWorld, list[SafetyLayer]]]:
     """Several copies of ``robot`` in one MuJoCo world, at ``base_poses`` (world x, y, yaw), each
-    behind its own ``SafetyLayer``; the world steps once every robot has written its command. Only
+    behind its own ``SafetyLayer`` and under the same ``disturbances`` (each robot pushed in its own
+    start frame); the world steps once every robot has written its command. Only
     ``mujoco``: the emulated buses each drive a world of their own."""
     if HardwareKind.parse(kind) is not HardwareKind.MUJOCO:
         raise ValueError(f"hw {kind!r}: a group walks in one shared MuJoCo world, which only the 'mujoco' "
                          "backend drives (each emulated bus drives a simulated robot of its own)")
     prefixes = tuple(f"{robot.name}_{i}" for i in range(len(base_poses)))
-    world = MujocoWorld(robot.group_mjcf_path(prefixes), control_dt, viewer, video)
+    world = MujocoWorld(robot.group_mjcf_path(prefixes), control_dt, viewer, video, disturbances.friction_scale)
     limits = SafetyLimits.for_simulation(robot, control_dt)
-    hws = [SafetyLayer(MujocoBackend(robot, world=world, prefix=p, base_xy_yaw=pose), limits, clock=None)
+    hws = [SafetyLayer(MujocoBackend(robot, world=world, prefix=p, base_xy_yaw=pose, disturbances=disturbances),
+                       limits, clock=None)
            for p, pose in zip(prefixes, base_poses)]
     try:
         yield world, hws

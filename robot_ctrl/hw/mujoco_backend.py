@@ -11,12 +11,15 @@ The robot starts in its half-sitting posture with the lowest point of its feet o
 
 from __future__ import annotations
 
+import dataclasses
+from collections import deque
 from pathlib import Path
 
 import mujoco
 import numpy as np
 
 from robot_ctrl.hw.adapter import HardwareAdapter
+from robot_ctrl.hw.disturbances import Disturbances
 from robot_ctrl.hw.mujoco_world import MujocoWorld
 from robot_ctrl.hw.types import JointCommand, JointState
 from robot_ctrl.robot.joint_map import MujocoJointMap, pin_to_mujoco_qpos
@@ -33,11 +36,12 @@ class MujocoBackend(HardwareAdapter):
 
     def __init__(self, robot: RobotModel, control_dt: float = 0.005, base_xy_yaw=(0.0, 0.0, 0.0),
                  viewer: bool = False, world: MujocoWorld | None = None, prefix: str | None = None,
-                 video: Path | None = None):
+                 video: Path | None = None, disturbances: Disturbances = Disturbances()):
         super().__init__(robot.nj)
         self.robot = robot
         self._owns_world = world is None
-        self.world = MujocoWorld(robot.mjcf_path, control_dt, viewer, video) if world is None else world
+        self.world = (MujocoWorld(robot.mjcf_path, control_dt, viewer, video, disturbances.friction_scale)
+                      if world is None else world)
         self.world.attach()
         self.m, self.d = self.world.m, self.world.d
         self.control_dt = self.world.control_dt
@@ -88,6 +92,23 @@ class MujocoBackend(HardwareAdapter):
         self._servo_qvel_col = qvel_at + self.m.jnt_dofadr[joints]
         self._gear = self.m.actuator_gear[self._acts, 0].copy()
         self._joint_order = np.arange(self.nj)
+        self._disturb(disturbances)
+
+    def _disturb(self, dist: Disturbances) -> None:
+        """Model mismatch (mass), pushes, latency and sensor noise of ``dist`` on this robot."""
+        self.disturbances = dist
+        if dist.mass_scale != 1.0:
+            bodies = np.array(sorted(self._robot_bodies))
+            self.m.body_mass[bodies] *= dist.mass_scale
+            self.m.body_inertia[bodies] *= dist.mass_scale
+            mujoco.mj_setConst(self.m, self.d)
+        mass = float(self.m.body_subtreemass[self._root])
+        for push in dist.pushes:
+            direction = self._start[2] + push.angle
+            force = push.impulse * mass / push.duration * np.array([np.cos(direction), np.sin(direction), 0.0])
+            self.world.add_push(int(self.map.base_body), push.time, push.duration, force)
+        self._delay = deque(maxlen=dist.latency_ticks(self.control_dt) + 1)
+        self._noise = np.random.default_rng(dist.seed) if dist.sensor_noise else None
 
     # Lifecycle hooks --------------------------------------------------------------------------
     def _on_configure(self) -> None:
@@ -127,11 +148,16 @@ class MujocoBackend(HardwareAdapter):
         self.m.actuator_biasprm[a, 0] = kd * dq + tau_ff
 
     def _write(self, cmd: JointCommand) -> None:
+        self._delay.append(cmd)
+        if len(self._delay) == self._delay.maxlen:  # the command written latency ago reaches the servos
+            self._apply(self._delay[0])
+        self.world.submit()
+
+    def _apply(self, cmd: JointCommand) -> None:
         self._apply_gains(cmd.kp, cmd.kd, cmd.dq, cmd.tau_ff)
         self.d.ctrl[self._acts] = cmd.q
         # In the servos' own length and velocity (gear × the joint's): the demand record's gains.
         self._servo = (cmd.kp * self._gear, cmd.kd * self._gear, cmd.kp * cmd.q + self.m.actuator_biasprm[self._acts, 0])
-        self.world.submit()
 
     def _peak_demand(self) -> np.ndarray | None:
         """Per joint, the unsaturated servo torque of largest magnitude over the physics steps of
@@ -149,7 +175,7 @@ class MujocoBackend(HardwareAdapter):
         b, v = mp.base_qpos, mp.base_dof
         rot = d.xmat[mp.base_body].reshape(3, 3)
         q, dq = d.qpos[mp.qpos], d.qvel[mp.dof]  # index arrays: copies, not views of the simulation
-        return JointState(
+        state = JointState(
             t=float(d.time),
             q=q,
             dq=dq,
@@ -163,6 +189,21 @@ class MujocoBackend(HardwareAdapter):
             tau_demand=self._peak_demand(),
             floor_contacts=self._floor_contacts(),
         )
+        return state if self._noise is None else self._noisy(state)
+
+    def _noisy(self, state: JointState) -> JointState:
+        """The state as noisy sensors report it (``Disturbances.noise``): encoders, the IMU's
+        attitude (a small random rotation), the feet's force/torque sensors."""
+        rng, sigma = self._noise, self.disturbances.noise
+        x, y, z, w = state.base_quat_xyzw
+        rx, ry, rz = rng.normal(0.0, sigma["base_orientation"], 3) / 2  # q ⊗ (δ/2, 1), first order
+        quat = np.array([x + w * rx + y * rz - z * ry, y + w * ry + z * rx - x * rz,
+                         z + w * rz + x * ry - y * rx, w - x * rx - y * ry - z * rz])
+        wrench = {side: f + np.concatenate([rng.normal(0.0, sigma["foot_force"], 3),
+                                            rng.normal(0.0, sigma["foot_torque"], 3)])
+                  for side, f in state.foot_wrench.items()}
+        return dataclasses.replace(state, q=state.q + rng.normal(0.0, sigma["joint_position"], self.nj),
+                                   base_quat_xyzw=quat / np.linalg.norm(quat), foot_wrench=wrench)
 
     # Contacts -----------------------------------------------------------------------------------
     def _foot_wrenches(self) -> dict[str, np.ndarray]:

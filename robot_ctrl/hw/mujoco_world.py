@@ -28,9 +28,12 @@ class MujocoWorld:
     #: What a physics state holds (``mj_getState``): time, qpos, qvel, act, mocap, user data.
     STATE = mujoco.mjtState.mjSTATE_FULLPHYSICS
 
-    def __init__(self, mjcf: Path, control_dt: float = 0.005, viewer: bool = False, video: Path | None = None):
-        """``video``: write an MP4 of the run there (:class:`~robot_ctrl.hw.mujoco_video.WorldVideo`)."""
+    def __init__(self, mjcf: Path, control_dt: float = 0.005, viewer: bool = False, video: Path | None = None,
+                 friction_scale: float = 1.0):
+        """``video``: write an MP4 of the run there (:class:`~robot_ctrl.hw.mujoco_video.WorldVideo`);
+        ``friction_scale``: every geom's sliding friction times this (``Disturbances``)."""
         self.m = mujoco.MjModel.from_xml_path(str(mjcf))
+        self.m.geom_friction[:, 0] *= friction_scale
         self.d = mujoco.MjData(self.m)
         self.n_substeps = round(control_dt / self.m.opt.timestep)
         if self.n_substeps < 1 or abs(self.n_substeps * self.m.opt.timestep - control_dt) > 1e-9:
@@ -50,11 +53,17 @@ class MujocoWorld:
         self._start = np.zeros((1, nstate))
         self._warmstart = np.zeros((1, m.nv))
         self._ctrl = np.zeros((1, n, m.nu))
+        self._pushes: list[tuple[int, float, float, np.ndarray]] = []  # (body, start, end [s], world force)
+        self._ctrl_xfrc = None  # (1, n, nu + 6 nbody): controls and body forces, built when a push acts
         self._sensordata = np.zeros((1, n, m.nsensordata))
         self._rollout = mujoco.rollout.Rollout(nthread=0)  # runs on the calling thread
         self._video_path = video
         self.video = None
         self._robots = self._submitted = 0
+
+    def add_push(self, body: int, start: float, duration: float, force: np.ndarray) -> None:
+        """A force [N] (world frame, on ``body``'s centre of mass) over [start, start + duration) [s]."""
+        self._pushes.append((body, start, start + duration, np.asarray(force, dtype=float)))
 
     def attach(self) -> None:
         """A robot's backend joins the world: the world steps once each attached robot submitted."""
@@ -88,8 +97,9 @@ class MujocoWorld:
         mujoco.mj_getState(self.m, self.d, self._start[0], self.STATE)
         self._warmstart[0] = self.d.qacc_warmstart
         self._ctrl[0] = self.d.ctrl
-        self._rollout.rollout([self.m], [self.d], self._start, self._ctrl, skip_checks=True, nstep=self.n_substeps,
-                              control_spec=mujoco.mjtState.mjSTATE_CTRL, initial_warmstart=self._warmstart,
+        control, spec = self._pushed_control()
+        self._rollout.rollout([self.m], [self.d], self._start, control, skip_checks=True, nstep=self.n_substeps,
+                              control_spec=spec, initial_warmstart=self._warmstart,
                               state=self._after, sensordata=self._sensordata)
         self.step_states[0] = self._start[0]
         self.step_states[1:] = self._after[0, :-1]
@@ -101,6 +111,24 @@ class MujocoWorld:
             lag = self.d.time - (time.perf_counter() - self._wall0)
             if lag > 0:  # pace the viewer at real time
                 time.sleep(lag)
+
+    def _pushed_control(self) -> tuple[np.ndarray, int]:
+        """The rollout's control over the period: the servos' alone, or with each step's body forces
+        while a push acts (a force written into ``xfrc_applied`` before the rollout would not be)."""
+        m, n, dt = self.m, self.n_substeps, self.m.opt.timestep
+        times = self.d.time + dt * np.arange(n)
+        active = [(b, (times >= t0 - 1e-9) & (times < t1 - 1e-9), f) for b, t0, t1, f in self._pushes]
+        active = [a for a in active if a[1].any()]
+        if not active:
+            return self._ctrl, int(mujoco.mjtState.mjSTATE_CTRL)
+        if self._ctrl_xfrc is None:
+            self._ctrl_xfrc = np.zeros((1, n, m.nu + 6 * m.nbody))
+        control = self._ctrl_xfrc
+        control[0, :, : m.nu] = self._ctrl[0]
+        control[0, :, m.nu :] = 0.0
+        for body, steps, force in active:
+            control[0, steps, m.nu + 6 * body : m.nu + 6 * body + 3] = force
+        return control, int(mujoco.mjtState.mjSTATE_CTRL | mujoco.mjtState.mjSTATE_XFRC_APPLIED)
 
     def close(self) -> None:
         if self.video is not None:

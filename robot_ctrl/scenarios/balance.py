@@ -15,6 +15,7 @@ from robot_ctrl.control.loop import ControlLoop
 from robot_ctrl.eval import FallCriterion, RunMetrics
 from robot_ctrl.eval.recorders import Fell, MetricsRecorder, ProgressBar, TimeLimit
 from robot_ctrl.eval.report_file import write_report
+from robot_ctrl.hw.disturbances import Disturbances
 from robot_ctrl.hw.safety import SafetyLayer
 from robot_ctrl.robot.model import RobotModel, configuration
 
@@ -47,7 +48,8 @@ class HandError:
 
 
 def run_balance(robot: RobotModel, hw: SafetyLayer, params: BalanceParams = BalanceParams(),
-                out_dir: Path | None = None, log: Callable[[str], None] = print, progress: bool = False) -> dict:
+                out_dir: Path | None = None, log: Callable[[str], None] = print, progress: bool = False,
+                disturbances: Disturbances = Disturbances()) -> dict:
     """Run the balance demo on ``hw`` (from :func:`robot_ctrl.hw.hardware.open_hardware`); return
     (and write to ``out_dir``) the report."""
     dt = params.control_dt
@@ -70,6 +72,7 @@ def run_balance(robot: RobotModel, hw: SafetyLayer, params: BalanceParams = Bala
         log(result.stop_reason)
     report = metrics.report() | dict(robot=robot.name, hand_error_m=hand.error,
                                      hand_target_floor_m=list(params.hand_target), safety=hw.report(),
+                                     disturbances=disturbances.to_dict(),
                                      rtf=round(result.rtf, 3), control_rate_hz=round(1.0 / dt, 3))
     log(f"safety layer: {report['safety']}")
     log(f"fell: {str(report['fell']).lower()}  hand_error_m: {hand.error}  peak_torque_ratio: "

@@ -22,6 +22,7 @@ from robot_ctrl.crowd.group_walk_settings import GroupWalk, certified_coupling
 from robot_ctrl.eval import FallCriterion, RunMetrics
 from robot_ctrl.eval.group_walk_report import TouchdownRecorder, group_walk_report
 from robot_ctrl.eval.recorders import Fell, MetricsRecorder, ProgressBar, TimeLimit
+from robot_ctrl.hw.disturbances import Disturbances
 from robot_ctrl.hw.hardware import open_group_hardware
 from robot_ctrl.robot.model import RobotModel
 from robot_ctrl.wpg.params import WalkParams
@@ -31,12 +32,13 @@ STAND_AFTER = 1.5  # [s] standing after the stop
 
 def run_group_walk(robot: RobotModel, g: GroupWalk = GroupWalk(), hw_kind: str = "mujoco",
                    out_dir: Path | None = None, viewer: bool = False, video: Path | None = None,
-                   log: Callable[[str], None] = print, progress: bool = False, control_dt: float = 0.005) -> dict:
+                   log: Callable[[str], None] = print, progress: bool = False, control_dt: float = 0.005,
+                   disturbances: Disturbances = Disturbances()) -> dict:
     coupling, bridge, profile, conditions = certified_coupling(robot.name, g, WalkParams().step_period, log)
     starts = np.random.default_rng(g.seed).uniform(0.0, 2 * bridge.step_period, g.n)
     log("start delays [s]: " + " ".join(f"{s:.3f}" for s in starts))
     poses = [(0.0, float(y), 0.0) for y in (np.arange(g.n) - (g.n - 1) / 2) * g.spacing]
-    with open_group_hardware(hw_kind, robot, poses, viewer, control_dt, video) as (world, hws):
+    with open_group_hardware(hw_kind, robot, poses, viewer, control_dt, video, disturbances) as (world, hws):
         for hw in hws:
             hw.configure()
         for hw in hws:
@@ -58,7 +60,7 @@ def run_group_walk(robot: RobotModel, g: GroupWalk = GroupWalk(), hw_kind: str =
         safety = [hw.report() for hw in hws]
     log(result.stop_reason)
     return group_walk_report(robot, g, commander, metrics, safety, touchdowns, conditions, profile, bridge, starts,
-                             result, out_dir, log)
+                             result, out_dir, log, disturbances.to_dict())
 
 
 class _StoodAfterStop:

@@ -22,6 +22,7 @@ from robot_ctrl.eval.report_file import write_report
 from robot_ctrl.eval.walk_log import GRF_LIMIT_RATIO, WalkLog
 from robot_ctrl.eval.walk_recorder import WalkRecorder
 from robot_ctrl.geometry import GRAVITY, base_pose_xy_yaw
+from robot_ctrl.hw.disturbances import Disturbances
 from robot_ctrl.hw.safety import SafetyLayer
 from robot_ctrl.modes import ArmMotion, FilterMode
 from robot_ctrl.robot.model import RobotModel
@@ -41,8 +42,10 @@ class WalkSettings:
 
 
 def run_walk(robot: RobotModel, hw: SafetyLayer, goal: WalkGoal, settings: WalkSettings = WalkSettings(),
-             out_dir: Path | None = None, log: Callable[[str], None] = print, progress: bool = False) -> dict:
-    """Walk ``goal`` on ``hw`` (from :func:`robot_ctrl.hw.hardware.open_hardware`) and report."""
+             out_dir: Path | None = None, log: Callable[[str], None] = print, progress: bool = False,
+             disturbances: Disturbances = Disturbances()) -> dict:
+    """Walk ``goal`` on ``hw`` (from :func:`robot_ctrl.hw.hardware.open_hardware`, which applied
+    ``disturbances``: the report lists them) and report."""
     s, dt = settings, settings.control_dt
     hw.configure()
     hw.activate()
@@ -71,7 +74,8 @@ def run_walk(robot: RobotModel, hw: SafetyLayer, goal: WalkGoal, settings: WalkS
         stood_s=round(stood.held(result.states[0].t), 3), stabilizer=s.stabilize, arms=s.arms.value,
         dynfilter=s.dynfilter.value, dynfilter_passes=s.dynfilter_passes if filtered else 0,
         dynfilter_fallbacks=controller.filter_fallbacks,
-        dynfilter_worker=s.dynfilter_worker and filtered, safety=hw.report(), rtf=round(result.rtf, 3),
+        dynfilter_worker=s.dynfilter_worker and filtered, safety=hw.report(), disturbances=disturbances.to_dict(),
+        rtf=round(result.rtf, 3),
         control_rate_hz=round(1.0 / dt, 3))
     log(f"fell: {str(report['fell']).lower()}  final base (x, y, yaw) {report['final_base_xy_yaw']} vs commanded "
         f"{report['commanded_base_xy_yaw']}  zmp_in_support_ratio {report['zmp_in_support_ratio']}  "
