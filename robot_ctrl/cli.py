@@ -4,11 +4,22 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 import sys
 from pathlib import Path
 
 from robot_ctrl.modes import ArmMotion, FilterMode, HardwareKind
 from robot_ctrl.robot.config import ConfigError, available_robots
+
+
+#: The coupling settings' names in messages, and the options that set them.
+_COUPLING_OPTIONS = {"k": "--k", "alpha": "--alpha", "m_d": "--md", "m_z": "--mz", "m_psi": "--mpsi",
+                     "k_sine": "--ksine", "lowpass": "--lowpass", "n": "--robots", "seed": "--seed"}
+
+
+def _named(message: str) -> str:
+    """``message`` with each setting's name (``m_d = ...``) replaced by its option (``--md = ...``)."""
+    return re.sub(r"\b(" + "|".join(_COUPLING_OPTIONS) + r") = ", lambda m: f"{_COUPLING_OPTIONS[m.group(1)]} = ", message)
 
 
 def _log(line: str) -> None:
@@ -103,8 +114,11 @@ def _synth_primitives(args: argparse.Namespace):
 def _synth(args: argparse.Namespace) -> int:
     from robot_ctrl.scenarios.walk_reach_synthesis import GoalJump, plot_synthesis, run_synthesis, write_synthesis
     from robot_ctrl.synthesis.demonstrations import upper_body_joints
+    from robot_ctrl.synthesis.step_planning import MAX_GOAL_DISTANCE
     from robot_ctrl.synthesis.synthesizer import WalkReachGoal
 
+    if not (0 < args.distance <= MAX_GOAL_DISTANCE):  # before the primitives are learned (seconds)
+        raise ConfigError(f"synth: --distance {args.distance} m is outside the allowed range (0, {MAX_GOAL_DISTANCE}]")
     robot, primitives = _synth_primitives(args)
     if args.slot not in primitives.slots:
         raise ConfigError(f"synth: --slot {args.slot!r} is not one of {', '.join(primitives.slots)}")
@@ -176,13 +190,13 @@ def _crowd_certify(args: argparse.Namespace) -> int:
 
     from robot_ctrl.crowd.certificates import CouplingConfig, certify
 
-    g = np.loadtxt(args.g_profile, ndmin=1) if args.g_profile else np.ones(1)
     try:
+        g = np.loadtxt(args.g_profile, ndmin=1) if args.g_profile else np.ones(1)
         cfg = CouplingConfig(_crowd_graph(args), k=args.k, alpha=args.alpha, m_d=args.md, m_z=args.mz,
                              m_psi=args.mpsi, k_sine=args.ksine, lowpass=args.lowpass, g=g,
                              heading_spread=np.radians(args.spread_deg))
-    except ValueError as exc:
-        raise ConfigError(f"crowd certify: {exc}") from exc
+    except (OSError, ValueError) as exc:
+        raise ConfigError(f"crowd certify: {_named(str(exc))}") from exc
     conditions = certify(cfg)
     if args.json:
         print(json.dumps([c.to_dict() for c in conditions], indent=2))
@@ -198,9 +212,9 @@ def _crowd_certify(args: argparse.Namespace) -> int:
 def _crowd_audit(args: argparse.Namespace) -> int:
     from robot_ctrl.crowd.audit import audit
 
-    if not (1 <= args.graphs <= 100000) or not (2 <= args.min_n <= args.max_n <= 60):
-        raise ConfigError(f"crowd audit: --graphs {args.graphs} must be in [1, 100000] and 2 <= --min-n "
-                          f"{args.min_n} <= --max-n {args.max_n} <= 60")
+    if not (1 <= args.graphs <= 100000) or not (2 <= args.min_n <= args.max_n <= 60) or args.seed < 0:
+        raise ConfigError(f"crowd audit: --graphs {args.graphs} must be in [1, 100000], 2 <= --min-n "
+                          f"{args.min_n} <= --max-n {args.max_n} <= 60 and --seed {args.seed} >= 0")
     print("certificate     holds  exact  certified/worst case: median    min    max  optimistic")
     for name, row in audit(args.graphs, (args.min_n, args.max_n), args.seed).items():
         stats = "  ".join(f"{row[k]:6.3f}" if row[k] is not None else "     -" for k in ("median", "min", "max"))
@@ -217,6 +231,10 @@ def _crowd_run(args: argparse.Namespace) -> int:
     from robot_ctrl.crowd.gait_profile import GaitProfile
     from robot_ctrl.eval.report_file import write_report
 
+    for option, value, (lo, hi) in (("--duration", args.duration, (1e-3, 3600.0)), ("--runs", args.runs, (1, 10000)),
+                                    ("--frequency", args.frequency, (1e-3, 10.0)), ("--speed", args.speed, (1e-3, 10.0))):
+        if not lo <= value <= hi:
+            raise ConfigError(f"crowd run: {option} {value} is outside the allowed range [{lo:g}, {hi:g}]")
     graph = _crowd_graph(args)
     omega = 2 * np.pi * args.frequency
     try:
@@ -228,8 +246,11 @@ def _crowd_run(args: argparse.Namespace) -> int:
         conditions = coupling.certify(np.ones(1) if profile is None else profile.g, omega, phases="hopf")
         refuse_violated(conditions, args.allow_unstable)
     except ValueError as exc:
+        raise ConfigError(f"crowd run: {_named(str(exc))}") from exc
+    try:
+        result = run_group(coupling, duration=args.duration, runs=args.runs, profile=profile, omega=omega)
+    except ValueError as exc:
         raise ConfigError(f"crowd run: {exc}") from exc
-    result = run_group(coupling, duration=args.duration, runs=args.runs, profile=profile, omega=omega)
     for c in result.conditions:
         print(c.line())
     print(f"empirical phase rate {result.empirical_rate} 1/s, final phase spread {result.final_spread:.3g} rad")
@@ -287,6 +308,8 @@ def _crowd_figure(args: argparse.Namespace) -> int:
 
     from robot_ctrl.crowd.experiments import rate_slopes
 
+    if not 1 <= args.runs <= 1000:
+        raise ConfigError(f"crowd figure: --runs {args.runs} is outside the allowed range [1, 1000]")
     data = rate_slopes(runs=args.runs)
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "slopes.json").write_text(json.dumps(data, indent=2) + "\n")
@@ -333,7 +356,7 @@ def _crowd_walk(args: argparse.Namespace) -> int:
         report = run_group_walk(robot, group, args.hw, out_dir=args.out, viewer=args.viewer, video=args.video,
                                 log=_log, progress=not args.quiet, disturbances=disturbances)
     except ValueError as exc:
-        raise ConfigError(f"crowd walk: {exc}") from exc
+        raise ConfigError(f"crowd walk: {_named(str(exc))}") from exc
     return _finish(args, report)
 
 

@@ -111,3 +111,12 @@ def test_bad_disturbances_are_refused(option, message, capsys):
 
     assert main(["walk", "--distance", "1", *option]) == 2
     assert re.search(message, capsys.readouterr().err)
+
+
+def test_a_robot_that_falls_is_reported_as_fallen(tmp_path):
+    """The fall detector fires: a 2 N·s/kg push to the right knocks Talos over; the walk reports it
+    and exits with status 1."""
+    assert main(["walk", "--distance", "1", "--push", "1.0:-90:2", "--quiet", "--out", str(tmp_path)]) == 1
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert report["fell"] is True and 1.0 < report["fall_time_s"] < 4.0
+    assert "touching the floor" in report["fall_reason"] or "base height" in report["fall_reason"]

@@ -35,6 +35,8 @@ class GroupWalk:
             value = getattr(self, name)
             if not (np.isfinite(value) and lo <= value <= hi):
                 raise ValueError(f"{name} = {value} is outside the allowed range [{lo}, {hi}]")
+        if self.seed < 0:
+            raise ValueError(f"seed = {self.seed} must be ≥ 0")
 
 
 def certified_coupling(robot_name: str, g: GroupWalk, step_period: float, log: Callable[[str], None]):

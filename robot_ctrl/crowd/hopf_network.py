@@ -44,6 +44,11 @@ class CrowdTrajectory:
     positions: np.ndarray | None  # (T, runs, N, 2) floor positions [m], with position dynamics
 
 
+#: Work a simulation may take: RK4 steps, and values of the recorded trajectories (8 bytes each).
+MAX_STEPS = 2_000_000
+MAX_RECORDED = 200_000_000
+
+
 def simulate_crowd(coupling: GaitCoupling, duration: float, omega: float = 2 * np.pi, g: np.ndarray | None = None,
                    runs: int = 100, seed: int = 0, dt: float | None = None, z_spread: float = 2.0,
                    heading_spread: float = np.pi / 2, record_every: int = 1) -> CrowdTrajectory:
@@ -102,6 +107,10 @@ def simulate_crowd(coupling: GaitCoupling, duration: float, omega: float = 2 * n
 
     steps = int(round(duration / dt))
     frames = steps // record_every + 1
+    if steps > MAX_STEPS or frames * runs * n > MAX_RECORDED:
+        raise ValueError(f"the simulation would take {steps:.3g} steps of {dt:.3g} s and record {frames * runs * n:.3g} "
+                         f"values (limits {MAX_STEPS:.0e} and {MAX_RECORDED:.0e}): lower the duration, the runs or "
+                         "the coupling gains (large gains need small steps)")
     phases = np.empty((frames, runs, n))
     zs = np.empty((frames, runs, n)) if walk else None
     psis = np.empty((frames, runs, n)) if walk and turn else None

@@ -91,7 +91,11 @@ def load_bus_config(name_or_path: str | Path, joint_names: tuple[str, ...]) -> B
     if not path.is_file():
         have = sorted(p.stem for p in HW_CONFIGS.glob("*.yaml"))
         raise ConfigError(f"bus config {str(name_or_path)!r} not found; configs/hw has: {have}")
-    data = yaml.safe_load(path.read_text()) or {}
+    try:
+        data = yaml.safe_load(path.read_text()) or {}
+    except (OSError, yaml.YAMLError) as exc:
+        raise ConfigError(f"cannot read bus config {path}: {' '.join(str(exc).split())}") from exc
+    _require(isinstance(data, dict), "the file must be a YAML mapping", path)
     backend = data.get("backend")
     _require(backend in BACKENDS, f"backend must be one of {BACKENDS}, got {backend!r}", path)
     models = data.get("models") or {}

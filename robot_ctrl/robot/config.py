@@ -86,7 +86,7 @@ def load_robot_config(name_or_path: str | Path) -> RobotConfig:
     try:
         raw = yaml.safe_load(path.read_text())
     except (OSError, yaml.YAMLError) as exc:
-        raise ConfigError(f"cannot read robot config {path}: {exc}") from exc
+        raise ConfigError(f"cannot read robot config {path}: {' '.join(str(exc).split())}") from exc
     return parse_robot_config(raw, source=str(path))
 
 

@@ -32,6 +32,10 @@ class StepPlan:
     lengths: tuple[float, ...]
 
 
+#: The farthest goal a plan accepts [m]: a dozen gait cycles, about a room's length.
+MAX_GOAL_DISTANCE = 10.0
+
+
 def plan_steps(distance: float, comfort: float, ranges: ActionRanges, gamma: float = GAMMA,
                after_short: bool = False) -> StepPlan:
     """Plan the remaining actions for a pelvis-to-goal ``distance`` [m].
@@ -46,6 +50,8 @@ def plan_steps(distance: float, comfort: float, ranges: ActionRanges, gamma: flo
     """
     if not (math.isfinite(distance) and math.isfinite(comfort)):
         raise ValueError(f"distance = {distance} m and comfort = {comfort} m must be finite")
+    if distance > MAX_GOAL_DISTANCE:
+        raise ValueError(f"goal distance = {distance:.3f} m is too far: at most {MAX_GOAL_DISTANCE} m")
     R = distance - comfort
     lo1, hi1 = ranges.normal
     lo2, hi2 = ranges.short
