@@ -11,7 +11,6 @@ from pathlib import Path
 from robot_ctrl.modes import ArmMotion, FilterMode, HardwareKind
 from robot_ctrl.robot.config import ConfigError, available_robots
 
-
 #: The coupling settings' names in messages, and the options that set them.
 _COUPLING_OPTIONS = {"k": "--k", "alpha": "--alpha", "m_d": "--md", "m_z": "--mz", "m_psi": "--mpsi",
                      "k_sine": "--ksine", "lowpass": "--lowpass", "n": "--robots", "seed": "--seed"}
