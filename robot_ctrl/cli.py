@@ -99,6 +99,19 @@ def _walk(args: argparse.Namespace) -> int:
     return _finish(args, report)
 
 
+def _robustness(args: argparse.Namespace) -> int:
+    from robot_ctrl.scenarios import robustness
+
+    if not 1 <= args.jobs <= 64:
+        raise ConfigError(f"robustness: --jobs {args.jobs} is outside the allowed range [1, 64]")
+    grid = {}
+    if args.quick:  # a smoke test of the campaign: two directions, one phase, two magnitudes
+        grid = dict(directions=(0, -90), phases={"single_mid": robustness.PHASES["single_mid"]},
+                    magnitudes=(0.1, 0.2), mismatch={k: robustness.MISMATCH[k] for k in ("mass ×1.15", "latency 10 ms")})
+    robustness.run_robustness(args.out, args.jobs, log=_log, progress=not args.quiet, **grid)
+    return 0
+
+
 def _synth_primitives(args: argparse.Namespace):
     from robot_ctrl.robot.model import load_robot
     from robot_ctrl.scenarios.walk_reach_synthesis import load_primitives
@@ -604,6 +617,19 @@ def _add_synth(sub, robot) -> None:
     p.set_defaults(run=_synth_demos)
 
 
+def _add_robustness(sub) -> None:
+    p = sub.add_parser("robustness", help="campaign of pushed and mismatched walks (MuJoCo, in parallel)",
+                       description="The 3 m walk at 0.25 m/s pushed in 8 directions at 4 gait phases with growing "
+                                   "impulses (0.1..0.5 N·s/kg) until it falls, and under mass, friction and latency "
+                                   "mismatch; writes DIR/robustness.json and DIR/robustness.html, and each walk's "
+                                   "report under DIR.")
+    p.add_argument("--out", type=Path, default=Path("runs/robustness"), help="output folder")
+    p.add_argument("--jobs", type=int, default=2, help="walks run at a time, 1..64")
+    p.add_argument("--quick", action="store_true", help="a small grid (2 directions, 1 phase, 2 magnitudes)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(run=_robustness)
+
+
 def _add_tools(sub) -> None:
     p = sub.add_parser("report", help="render DIR/report.json (+ timeseries) as DIR/report.html",
                        description="Self-contained HTML: metrics table, ZMP reference vs measured, top view of CoM "
@@ -623,6 +649,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_balance(sub, sim)
     _add_walk(sub, sim)
     _add_crowd(sub, sim)
+    _add_robustness(sub)
     _add_synth(sub, robot)
     _add_tools(sub)
     return parser

@@ -68,7 +68,8 @@ def _fmt(value) -> str:
     return json.dumps(value) if isinstance(value, (dict, list)) else str(value)
 
 
-def _png(fig) -> str:
+def figure_png(fig) -> str:
+    """A matplotlib figure as base64 PNG data (closes the figure)."""
     import matplotlib.pyplot as plt
 
     buffer = io.BytesIO()
@@ -96,7 +97,7 @@ def _zmp_figure(s) -> str:
         ax.set_ylabel(f"ZMP {name} [m]")
     axes[0].legend(fontsize=8, loc="upper left")
     axes[1].set_xlabel("time [s] (grey: single support)")
-    return _png(fig)
+    return figure_png(fig)
 
 
 def _top_view(s, report) -> str:
@@ -128,7 +129,7 @@ def _top_view(s, report) -> str:
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.4), ncol=4)
-    return _png(fig)
+    return figure_png(fig)
 
 
 def _rot(yaw: float) -> np.ndarray:
@@ -149,7 +150,7 @@ def _torque_figure(report) -> str:
     ax.set_ylabel("torque [N·m]")
     ax.set_yscale("log")
     ax.legend(fontsize=8)
-    return _png(fig)
+    return figure_png(fig)
 
 
 def _grf_figure(s) -> str:
@@ -162,4 +163,4 @@ def _grf_figure(s) -> str:
     ax.set_xlabel("time [s]")
     ax.set_ylabel("vertical GRF [N]")
     ax.legend(fontsize=8)
-    return _png(fig)
+    return figure_png(fig)

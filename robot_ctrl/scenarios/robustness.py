@@ -1,0 +1,64 @@
+"""Robustness campaign: the 3 m walk at 0.25 m/s under pushes in 8 directions at 4 gait phases,
+growing until the robot falls, and under model mismatch (mass, friction, latency). Each trial is
+``robot-ctrl walk`` with disturbance options (``eval/trials.py``); the campaign writes
+``robustness.json`` and ``robustness.html`` (polar plot of the largest survived push per direction
+and phase, a pass/fail table per mismatch)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Callable
+
+from robot_ctrl.eval.robustness_report import render_robustness
+from robot_ctrl.eval.trials import Trial, run_trials
+
+WALK = ("walk", "--distance", "3", "--speed", "0.25")
+DIRECTIONS = (0, 45, 90, 135, 180, -135, -90, -45)  # [deg] in the start frame, 0 forward, 90 left
+#: Push start times [s] in the third step of the walk (touch-downs at 1.6, 2.4, 3.2 s; 0.1 s of
+#: double support after each): start, middle and end of its single support, and double support.
+PHASES = {"single_start": 2.50, "single_mid": 2.80, "single_end": 3.10, "double": 3.20}
+MAGNITUDES = (0.1, 0.2, 0.3, 0.4, 0.5)  # [N·s/kg]
+MISMATCH = {"mass ×0.85": ("--mass-scale", "0.85"), "mass ×1.15": ("--mass-scale", "1.15"),
+            "friction ×0.3": ("--friction-scale", "0.3"), "friction ×0.4": ("--friction-scale", "0.4"),
+            "friction ×1.0": ("--friction-scale", "1.0"), "latency 5 ms": ("--latency-ms", "5"),
+            "latency 10 ms": ("--latency-ms", "10")}
+
+
+def _walked(report: dict) -> bool:
+    return "error" not in report and not report["fell"]
+
+
+def run_robustness(out_dir: Path, jobs: int = 1, directions=DIRECTIONS, phases: dict = PHASES,
+                   magnitudes=MAGNITUDES, mismatch: dict = MISMATCH, log: Callable[[str], None] = print,
+                   progress: bool = True) -> dict:
+    """Pushes grow per (direction, phase) until the first fall: one round of trials per magnitude,
+    only for the cells that walked the round before."""
+    out_dir = Path(out_dir)
+    largest = {(d, p): 0.0 for d in directions for p in phases}
+    standing = list(largest)  # cells that have not fallen yet
+    for m in magnitudes:
+        if not standing:
+            break
+        trials = [Trial(f"push_{p}_{d}_{m}", (*WALK, "--push", f"{phases[p]}:{d}:{m}")) for d, p in standing]
+        log(f"pushes of {m} N·s/kg: {len(trials)} walks")
+        reports = run_trials(trials, out_dir, jobs, progress=progress)
+        for cell, trial in zip(list(standing), trials):
+            if _walked(reports[trial.name]):
+                largest[cell] = m
+            else:
+                standing.remove(cell)
+    mismatch_trials = [Trial("mismatch_" + "".join(ch if ch.isalnum() else "_" for ch in name), (*WALK, *args))
+                       for name, args in mismatch.items()]
+    reports = run_trials(mismatch_trials, out_dir, jobs, progress=progress)
+    result = {
+        "walk": " ".join(WALK), "push_duration_s": 0.1, "phases_s": phases, "magnitudes_ns_per_kg": list(magnitudes),
+        "largest_survived_push": [{"direction_deg": d, "phase": p, "impulse_ns_per_kg": v} for (d, p), v in largest.items()],
+        "mismatch": [{"name": name, "walked": _walked(r), "fall_time_s": r.get("fall_time_s"),
+                      "final_position_error_m": r.get("final_position_error_m"), "error": r.get("error")}
+                     for name, r in zip(mismatch, reports.values())],
+    }
+    out_dir.mkdir(parents=True, exist_ok=True)
+    (out_dir / "robustness.json").write_text(json.dumps(result, indent=2) + "\n")
+    log(f"wrote {out_dir / 'robustness.json'} and {render_robustness(result, out_dir / 'robustness.html')}")
+    return result

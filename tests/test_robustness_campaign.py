@@ -1,0 +1,27 @@
+"""The robustness campaign runs real pushed and mismatched walks side by side and reports them."""
+
+import json
+
+from robot_ctrl.cli import main
+from robot_ctrl.scenarios.robustness import PHASES, run_robustness
+
+
+def test_a_small_campaign(tmp_path):
+    result = run_robustness(tmp_path, jobs=2, directions=(-90,), phases={"single_mid": PHASES["single_mid"]},
+                            magnitudes=(0.2, 2.0), mismatch={"latency 10 ms": ("--latency-ms", "10")},
+                            log=lambda _: None, progress=False)
+    # 0.2 N·s/kg to the right mid-step is survived, 2 N·s/kg is not: the largest survived is 0.2.
+    (cell,) = result["largest_survived_push"]
+    assert cell == {"direction_deg": -90, "phase": "single_mid", "impulse_ns_per_kg": 0.2}
+    pushed = json.loads((tmp_path / "push_single_mid_-90_2.0" / "report.json").read_text())
+    assert pushed["fell"] is True and pushed["disturbances"]["pushes"][0]["impulse_ns_per_kg"] == 2.0
+    (latency,) = result["mismatch"]
+    assert latency["walked"] and latency["final_position_error_m"] < 0.05
+    page = (tmp_path / "robustness.html").read_text()
+    assert "data:image/png;base64," in page and "latency 10 ms" in page and "http" not in page.replace("http-equiv", "")
+    assert json.loads((tmp_path / "robustness.json").read_text()) == json.loads(json.dumps(result))
+
+
+def test_campaign_options_are_checked(capsys):
+    assert main(["robustness", "--jobs", "0"]) == 2
+    assert "--jobs 0 is outside the allowed range [1, 64]" in capsys.readouterr().err
