@@ -41,7 +41,7 @@ def render_robustness(result: dict, path: Path) -> Path:
 <style>body{{font-family:sans-serif;max-width:900px;margin:2em auto;}} table{{border-collapse:collapse;margin:1em 0;}}
 th,td{{border:1px solid #ccc;padding:3px 8px;text-align:left;font-size:90%;}} img{{max-width:100%;}}</style>
 </head><body><h1>Robustness: {html.escape(result['walk'])}</h1>
-<p>Pushes of {result['push_duration_s']} s on the base, growing until the robot falls; 0 = not even the smallest.</p>
+<p>Pushes of {result['push_duration_s']} s on the base, growing until the robot falls; 0: not even the smallest; {max(result['magnitudes_ns_per_kg']):g}: the largest tested, and it did not fall.</p>
 <img alt="largest survived push" src="data:image/png;base64,{figure}">
 <table><tr><th>direction</th>{''.join(f'<th>{html.escape(p)}</th>' for p in phases)}</tr>{grid}</table>
 <h2>Model mismatch</h2><table><tr><th>run</th><th>result</th><th>final error</th><th>error</th></tr>{rows}</table>
