@@ -11,14 +11,18 @@ from pathlib import Path
 from robot_ctrl.modes import ArmMotion, FilterMode, HardwareKind
 from robot_ctrl.robot.config import ConfigError, available_robots
 
-#: The coupling settings' names in messages, and the options that set them.
+#: Settings' names in error messages, and the options that set them.
 _COUPLING_OPTIONS = {"k": "--k", "alpha": "--alpha", "m_d": "--md", "m_z": "--mz", "m_psi": "--mpsi",
-                     "k_sine": "--ksine", "lowpass": "--lowpass", "n": "--robots", "seed": "--seed"}
+                     "k_sine": "--ksine", "lowpass": "--lowpass"}
+_GROUP_OPTIONS = {**_COUPLING_OPTIONS, "n": "--robots", "seed": "--seed"}
+_DISTURBANCE_OPTIONS = {"mass_scale": "--mass-scale", "friction_scale": "--friction-scale",
+                        "latency": "--latency-ms: latency", "push time": "--push: push time",
+                        "push angle": "--push: push angle", "push impulse": "--push: push impulse"}
 
 
-def _named(message: str) -> str:
+def _named(message: str, options: dict[str, str]) -> str:
     """``message`` with each setting's name (``m_d = ...``) replaced by its option (``--md = ...``)."""
-    return re.sub(r"\b(" + "|".join(_COUPLING_OPTIONS) + r") = ", lambda m: f"{_COUPLING_OPTIONS[m.group(1)]} = ", message)
+    return re.sub(r"\b(" + "|".join(options) + r") = ", lambda m: f"{options[m.group(1)]} = ", message)
 
 
 def _log(line: str) -> None:
@@ -208,7 +212,7 @@ def _crowd_certify(args: argparse.Namespace) -> int:
                              m_psi=args.mpsi, k_sine=args.ksine, lowpass=args.lowpass, g=g,
                              heading_spread=np.radians(args.spread_deg))
     except (OSError, ValueError) as exc:
-        raise ConfigError(f"crowd certify: {_named(str(exc))}") from exc
+        raise ConfigError(f"crowd certify: {_named(str(exc), _COUPLING_OPTIONS)}") from exc
     conditions = certify(cfg)
     if args.json:
         print(json.dumps([c.to_dict() for c in conditions], indent=2))
@@ -258,7 +262,7 @@ def _crowd_run(args: argparse.Namespace) -> int:
         conditions = coupling.certify(np.ones(1) if profile is None else profile.g, omega, phases="hopf")
         refuse_violated(conditions, args.allow_unstable)
     except ValueError as exc:
-        raise ConfigError(f"crowd run: {_named(str(exc))}") from exc
+        raise ConfigError(f"crowd run: {_named(str(exc), _COUPLING_OPTIONS)}") from exc
     try:
         result = run_group(coupling, duration=args.duration, runs=args.runs, profile=profile, omega=omega)
     except ValueError as exc:
@@ -368,7 +372,7 @@ def _crowd_walk(args: argparse.Namespace) -> int:
         report = run_group_walk(robot, group, args.hw, out_dir=args.out, viewer=args.viewer, video=args.video,
                                 log=_log, progress=not args.quiet, disturbances=disturbances)
     except ValueError as exc:
-        raise ConfigError(f"crowd walk: {_named(str(exc))}") from exc
+        raise ConfigError(f"crowd walk: {_named(str(exc), _GROUP_OPTIONS)}") from exc
     return _finish(args, report)
 
 
@@ -449,11 +453,7 @@ def _disturbances(args: argparse.Namespace):
                             args.latency_ms / 1e3, args.sensor_noise)
         dist.latency_ticks(0.005)
     except ValueError as exc:
-        message = str(exc)
-        for name, option in (("mass_scale", "--mass-scale"), ("friction_scale", "--friction-scale"),
-                             ("latency = ", "--latency-ms: latency = "), ("push ", "--push: push ")):
-            message = message.replace(name, option) if not message.startswith("--") else message
-        raise ConfigError(message) from exc
+        raise ConfigError(_named(str(exc), _DISTURBANCE_OPTIONS)) from exc
     return dist
 
 

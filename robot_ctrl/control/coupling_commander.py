@@ -37,8 +37,8 @@ class CouplingCommander:
 
     def begin_tick(self, t: float) -> None:
         self._t = t
-        self._phi = [c.gait_phase() for c in self.controllers]
         samples = [c.plan_sample() for c in self.controllers]
+        self._phi = [s.gait_phase for s in samples]
         self._z = np.array([s.com_xy[0] for s in samples])
         self._headings = np.array([s.heading for s in samples])
         if self.coupled_since is None and all(p is not None for p in self._phi):

@@ -48,9 +48,6 @@ class PathCommander:
         follower's settling time and 10 s to stop and stand."""
         return self.duration + self.follower.settle_time + 10.0
 
-    def begin_tick(self, t: float) -> None:
-        pass
-
     def _steer(self, sample: PlanSample) -> None:
         planned_base = np.array([*(sample.com_xy - rotation(sample.heading) @ self.com_offset), sample.heading])
         was_done = self.follower.done

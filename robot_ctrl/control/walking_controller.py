@@ -93,9 +93,7 @@ class WalkingController:
         self.stabilizer.enabled = stabilize
         default_posture = self.ik.posture.target.copy()
         self.upper_body = upper_body if upper_body is not None else (lambda t: default_posture)
-        self.dynfilter_mode = dynfilter
         worker = dynfilter_worker and dynfilter is not FilterMode.OFF
-        self.dynfilter_worker = worker
         self.dynfilter = (DynamicFilterWorker if worker else DynamicFilter)(
             robot, self.params.horizon, self.params.com_height, dynfilter, dynfilter_passes)
         self.estimator = StateEstimator(robot)
@@ -155,8 +153,8 @@ class WalkingController:
 
     def plan_sample(self) -> PlanSample:
         wpg = self.wpg
-        return PlanSample(self.k * self.dt, np.array([wpg.com_x[0], wpg.com_y[0]]), wpg.heading,
-                          wpg.gait_phase(self.k * self.dt - wpg.sample_start), wpg.standing)
+        return PlanSample(self.k * self.dt, np.array([wpg.com_x[0], wpg.com_y[0]]), wpg.heading, self.gait_phase(),
+                          wpg.standing)
 
     def gait_phase(self, t: float | None = None) -> float | None:
         """Gait phase of the plan [rad] at time ``t`` within the current sample (default: the next

@@ -9,9 +9,10 @@
   ``DynamixelEmulator`` driving the MuJoCo simulation.
 
 ``disturbances`` (pushes, model mismatch, latency, sensor noise: ``hw/disturbances.py``) act on the
-simulated robot, on the emulated buses' too. Every kind comes behind a ``SafetyLayer``: what a controller sends reaches the simulated servos as it
-would reach real ones, and the layer's interventions go to the run's report. ``video`` records an MP4
-of the simulated robot (``MujocoWorld``). The emulated setups read the bus mapping from ``configs/hw/<robot>_mit_can.yaml`` or
+simulated robot, on the emulated buses' too. Every kind comes behind a ``SafetyLayer``: what a
+controller sends reaches the simulated servos as it would reach real ones, and the layer's
+interventions go to the run's report. ``video`` records an MP4 of the simulated robot
+(``MujocoWorld``). The emulated setups read the bus mapping from ``configs/hw/<robot>_mit_can.yaml`` or
 ``<robot>_dynamixel.yaml`` (or ``bus_config``), and use the simulation's clock for the safety layer's
 watchdog and staleness checks (lock-step: the simulated robot waits for the controller).
 """

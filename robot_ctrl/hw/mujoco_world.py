@@ -115,6 +115,8 @@ class MujocoWorld:
     def _pushed_control(self) -> tuple[np.ndarray, int]:
         """The rollout's control over the period: the servos' alone, or with each step's body forces
         while a push acts (a force written into ``xfrc_applied`` before the rollout would not be)."""
+        if not self._pushes:  # the usual period: nothing beyond the servos
+            return self._ctrl, int(mujoco.mjtState.mjSTATE_CTRL)
         m, n, dt = self.m, self.n_substeps, self.m.opt.timestep
         times = self.d.time + dt * np.arange(n)
         active = [(b, (times >= t0 - 1e-9) & (times < t1 - 1e-9), f) for b, t0, t1, f in self._pushes]

@@ -62,8 +62,8 @@ def run_walk(robot: RobotModel, hw: SafetyLayer, goal: WalkGoal, settings: WalkS
                                             s.grf_limit_ratio), start, log)
     stood = HeldFor(lambda: controller.standing and path.done, STAND_AFTER, "stood at the goal")
     bar = ProgressBar(path.duration + STAND_AFTER + 1.0, progress)
-    loop = ControlLoop([hw], [controller], dt, [path], [MetricsRecorder([metrics]), walk, bar],
-                       [Fell([metrics]), stood, TimeLimit(path.time_limit, "did not finish the path")])
+    loop = ControlLoop([hw], [controller], dt, recorders=[MetricsRecorder([metrics]), walk, bar],
+                       stops=[Fell([metrics]), stood, TimeLimit(path.time_limit, "did not finish the path")])
     try:
         result = loop.run([state])
     finally:
