@@ -24,7 +24,7 @@ $(BENCH_STAMP): pyproject.toml
 	touch $(BENCH_STAMP)
 
 demo: $(STAMP)
-	$(BIN)/robot-ctrl balance --robot talos --out runs/balance
+	$(BIN)/robot-ctrl drawer --robot talos --distance 2.0 --slot front_left --out runs/drawer
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q

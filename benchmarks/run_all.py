@@ -14,7 +14,7 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 SCRIPTS = ("bench_sot.py", "bench_wpg.py", "bench_loop.py", "bench_dynfilter.py", "bench_synthesis.py",
-           "bench_crowd.py")
+           "bench_drawer.py", "bench_crowd.py")
 PACKAGES = ("robot-ctrl", "numpy", "scipy", "casadi", "mujoco", "pin", "quadprog", "daqp", "mink", "placo")
 
 

@@ -76,26 +76,28 @@ def test_locally_weighted_regression_is_exact_on_affine_data_and_local_on_curved
 
 
 # -- planning and blending ------------------------------------------------------------------------
-RANGES = ActionRanges(normal=(0.26, 0.42), short=(0.20, 0.68))
+RANGES = ActionRanges(normal=(0.26, 0.42), short=(0.14, 0.46))
 
 
 def test_step_planning_follows_end_state_comfort():
     c = 0.55
-    plan = plan_steps(c + 0.9, c, RANGES)
+    rho = GAMMA / (1 - GAMMA)
+    plan = plan_steps(c + 0.6, c, RANGES)
     assert plan.actions == (1, 2, 3)
-    np.testing.assert_allclose(plan.lengths, (0.9 * GAMMA, 0.9 * (1 - GAMMA), 0.0))
-    longer = plan_steps(c + 1.8, c, RANGES)  # D1 would be 0.69 m: two extra normal cycles, same proportion
-    assert longer.actions == (1, 1, 1, 2, 3)
+    np.testing.assert_allclose(plan.lengths, (0.6 * (1 - GAMMA), 0.6 * GAMMA, 0.0))  # the short cycle is γ
+    assert plan.lengths[1] < plan.lengths[0]  # slowing down before the stop
+    longer = plan_steps(c + 1.8, c, RANGES)  # D1 would be 1.1 m: three extra normal cycles, same proportion
+    assert longer.actions == (1, 1, 1, 1, 2, 3)
     d1 = longer.lengths[0]
-    assert RANGES.normal[0] <= d1 <= RANGES.normal[1] and abs(longer.lengths[-2] / d1 - (1 - GAMMA) / GAMMA) < 1e-9
+    assert RANGES.normal[0] <= d1 <= RANGES.normal[1] and abs(longer.lengths[-2] / d1 - rho) < 1e-9
     assert abs(sum(longer.lengths) - 1.8) < 1e-12
-    assert plan_steps(c + 1.5, c, RANGES).actions == (1, 1, 2, 3)  # one extra is enough here
-    short = plan_steps(c + 0.5, c, RANGES)  # D1 = 0.19 m is below the normal range: one short cycle
-    assert short.actions == (2, 3) and short.lengths == (0.5, 0.0)
+    assert plan_steps(c + 1.0, c, RANGES).actions == (1, 1, 2, 3)  # one extra is enough here
+    short = plan_steps(c + 0.35, c, RANGES)  # D1 = 0.215 m is below the normal range: one short cycle
+    assert short.actions == (2, 3) and short.lengths == (0.35, 0.0)
     after = plan_steps(c + 1.0, c, RANGES, after_short=True)  # slowing down already: short cycles only
     assert set(after.actions[:-1]) == {2} and abs(sum(after.lengths) - 1.0) < 1e-12
-    with pytest.raises(ValueError, match="goal distance = 0.600 m is too close"):
-        plan_steps(0.6, c, RANGES)
+    with pytest.raises(ValueError, match="goal distance = 0.650 m is too close"):
+        plan_steps(0.65, c, RANGES)
 
 
 def test_blending_weight_and_sign_rule_are_continuous():
@@ -141,15 +143,15 @@ def training_distances(primitives):
 
 def test_unseen_distances_realize_the_planned_steps_and_end_at_comfort(primitives):
     c = primitives.comfort_distance
-    # Spanning what one normal + one short cycle cover, (D − c) from 0.26/γ = 0.675 m to 0.42/γ = 1.091 m,
-    # each at least 5 mm away from every training distance.
-    distances = c + np.array([0.686, 0.720, 0.776, 0.809, 0.866, 0.900, 0.956, 0.992, 1.046, 1.084])
+    # Spanning what one normal + one short cycle cover, (D − c) from 0.26 (1 + ρ) = 0.423 m to
+    # 0.42 (1 + ρ) = 0.683 m (ρ = γ / (1 − γ)), each at least 5 mm away from every training distance.
+    distances = c + np.array([0.424, 0.445, 0.455, 0.488, 0.520, 0.552, 0.585, 0.617, 0.649, 0.682])
     assert np.abs(distances[:, None] - training_distances(primitives)[None]).min() > 5e-3
     for k, d in enumerate(distances):
         run = run_synthesis(primitives, WalkReachGoal(float(d), ("front_left", "back_right")[k % 2]))
         r = run.report
         assert r["actions"] == [1, 2, 3]
-        np.testing.assert_allclose(r["planned_step_lengths_m"][:2], [(d - c) * GAMMA, (d - c) * (1 - GAMMA)])
+        np.testing.assert_allclose(r["planned_step_lengths_m"][:2], [(d - c) * (1 - GAMMA), (d - c) * GAMMA])
         assert np.abs(r["step_length_errors_mm"]).max() < 5.0
         assert abs(r["final_pelvis_to_goal_m"] - c) < 0.02
         assert np.all(np.isfinite(run.upper_body_q)) and np.all(np.isfinite(run.pelvis_velocity))
@@ -161,7 +163,7 @@ def test_unseen_distances_realize_the_planned_steps_and_end_at_comfort(primitive
 
 
 def test_transitions_have_no_jump_in_joint_angles(primitives):
-    run = run_synthesis(primitives, WalkReachGoal(primitives.comfort_distance + 0.85, "back_left"))
+    run = run_synthesis(primitives, WalkReachGoal(primitives.comfort_distance + 0.55, "back_left"))
     assert run.action[-1] == 0 and run.action[-2] == 3  # 0: ended, references held
     boundaries = np.flatnonzero(np.diff(run.action[:-1]))
     steps = np.abs(np.diff(run.upper_body_q, axis=0))
@@ -173,9 +175,9 @@ def test_transitions_have_no_jump_in_joint_angles(primitives):
 
 def test_goal_jump_adds_a_step_and_still_ends_at_comfort(primitives):
     c = primitives.comfort_distance
-    goal = WalkReachGoal(c + 0.85, "front_right")
+    goal = WalkReachGoal(c + 0.55, "front_right")
     planned = Synthesizer(primitives, goal).plan
-    run = run_synthesis(primitives, goal, jump=GoalJump(time=1.0, distance=c + 1.35))
+    run = run_synthesis(primitives, goal, jump=GoalJump(time=1.0, distance=c + 0.95))
     r = run.report
     assert r["replans"] == 1
     assert len(r["actions"]) == len(planned) + 1 and r["actions"][-2:] == [2, 3]
@@ -185,7 +187,7 @@ def test_goal_jump_adds_a_step_and_still_ends_at_comfort(primitives):
 
 def test_goal_jump_during_the_short_cycle_adds_a_short_cycle(primitives):
     c = primitives.comfort_distance
-    run = run_synthesis(primitives, WalkReachGoal(c + 0.85, "back_left"), jump=GoalJump(time=2.4, distance=c + 1.3))
+    run = run_synthesis(primitives, WalkReachGoal(c + 0.55, "back_left"), jump=GoalJump(time=2.4, distance=c + 0.85))
     assert run.report["actions"] == [1, 2, 2, 3]
     assert abs(run.report["final_pelvis_to_goal_m"] - c) < 0.02
 

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from robot_ctrl.geometry import GRAVITY, SIDES
+from robot_ctrl.geometry import GRAVITY, SIDES, base_pose_xy_yaw
 from robot_ctrl.geometry.support_polygon import SupportPolygon
 from robot_ctrl.hw.types import JointState
 from robot_ctrl.robot.model import RobotModel, configuration
@@ -26,6 +26,8 @@ class Estimate:
     in_contact: dict[str, bool]  # normal force above the contact threshold
     zmp: np.ndarray | None  # (2,) on the floor, None without contact [m]
     support: SupportPolygon | None  # hull of the soles in contact
+    hands: dict[str, np.ndarray]  # measured hand frame positions [m]
+    base_xy_yaw: np.ndarray  # measured base (pelvis) pose on the floor: x, y [m], yaw [rad]
 
     def dcm(self, omega: float) -> np.ndarray:
         """Divergent component of motion ξ = c + ċ/ω (horizontal) [m]."""
@@ -39,6 +41,7 @@ class StateEstimator:
         self.data = robot.pin.createData()
         self.threshold = contact_threshold * robot.mass * GRAVITY
         self._sole_frames = {s: robot.frame_ids[f"{s}_foot"] for s in SIDES}
+        self._hand_frames = {s: robot.frame_ids[f"{s}_hand"] for s in SIDES}
 
     def estimate(self, state: JointState) -> Estimate:
         r = self.robot
@@ -61,7 +64,9 @@ class StateEstimator:
             foot = r.config.foot
             support = SupportPolygon.of_soles([_sole_centre(soles[s], foot.center_offset) for s in down],
                                               foot.length, foot.width)
-        return Estimate(com.copy(), com_velocity, soles, {s: s in down for s in SIDES}, zmp, support)
+        hands = {s: self.data.oMf[f].translation.copy() for s, f in self._hand_frames.items()}
+        return Estimate(com.copy(), com_velocity, soles, {s: s in down for s in SIDES}, zmp, support, hands,
+                        base_pose_xy_yaw(state.base_pos, state.base_quat_xyzw))
 
 
 def _sole_centre(pose: pin.SE3, offset) -> tuple[tuple[float, float], float]:

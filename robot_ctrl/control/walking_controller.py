@@ -38,6 +38,8 @@ from robot_ctrl.wpg.footstep import Footstep
 from robot_ctrl.wpg.generator import WalkingPatternGenerator, WalkReference
 from robot_ctrl.wpg.params import WalkParams
 
+MAX_BALANCE_SHIFT = 0.04  # [m] of :meth:`WalkingController.shift_balance`, well inside a sole
+
 
 def sole_footstep(side: str, pose: pin.SE3) -> Footstep:
     return Footstep(side, float(pose.translation[0]), float(pose.translation[1]), yaw_of(pose.rotation))
@@ -64,18 +66,19 @@ class WalkingController:
                  control_dt: float = 0.005, stabilize: bool = True,
                  upper_body: Callable[[float], np.ndarray] | None = None,
                  dynfilter: FilterMode | str = FilterMode.OFF, dynfilter_passes: int = 2,
-                 dynfilter_worker: bool = False):
+                 dynfilter_worker: bool = False, trunk_weight: float = 1.0, balance_with_arms: bool = True):
         """``params``: pattern-generator settings; its robot-dependent fields are derived from the
         robot's start posture when not given (:meth:`WalkParams.for_robot`). ``stabilize``: DCM/ZMP
         balance feedback (``DcmStabilizer``). ``upper_body(t)``: posture-task target (joint order, rad)
         at time t, default the half-sitting posture; ``dynfilter``: :class:`FilterMode`, in a worker
         process one WPG sample behind with ``dynfilter_worker`` (``DynamicFilterWorker``). Call
-        :meth:`close` when done (it ends the worker)."""
+        :meth:`close` when done (it ends the worker). ``trunk_weight``, ``balance_with_arms``: how the
+        IK may use the upper body (``WholeBodyIK``)."""
         dynfilter = FilterMode.parse(dynfilter)
         self.robot = robot
         self.dt = control_dt
         q0 = configuration(robot, state.base_pos, state.base_quat_xyzw, state.q)
-        self.ik = WholeBodyIK(robot, q0)
+        self.ik = WholeBodyIK(robot, q0, trunk_weight=trunk_weight, balance_with_arms=balance_with_arms)
         feet = {s: self.ik.pose(f"{s}_foot") for s in SIDES}
         self.sole_height = float(np.mean([feet[s].translation[2] for s in SIDES]))
         com = self.ik.com_position()
@@ -98,12 +101,15 @@ class WalkingController:
             robot, self.params.horizon, self.params.com_height, dynfilter, dynfilter_passes)
         self.estimator = StateEstimator(robot)
         self.estimate = None
+        self.measured_configuration = q0  # Pinocchio configuration of the last state stepped from
         self._statics = robot.pin.createData()
         self.k = 0
         self.reference: WalkReference | None = None
         self._prepared: tuple[WalkReference, np.ndarray, np.ndarray, np.ndarray] | None = None  # see prepare
         self._v = np.zeros(robot.pin.nv)  # the IK's velocity at the last tick
         self._sample_hooks: list[Callable[[PlanSample], None]] = []
+        self._hands: dict[str, tuple[np.ndarray, np.ndarray] | None] = {s: None for s in SIDES}
+        self._balance_shift = np.zeros(2)
 
     # Commands ---------------------------------------------------------------------------------
     def on_sample(self, hook: Callable[[PlanSample], None]) -> None:
@@ -118,6 +124,23 @@ class WalkingController:
     def stop_at(self, left: Footstep, right: Footstep) -> None:
         """Stop with the soles at these footsteps (world frame), as close as the reach allows."""
         self.wpg.stop_at(left, right)
+
+    def set_upper_body(self, posture: Callable[[float], np.ndarray]) -> None:
+        """Posture-task target (joint order, rad) as a function of time [s], for now and for the
+        dynamic filter's preview over the horizon."""
+        self.upper_body = posture
+
+    def set_hand_target(self, side: str, position: np.ndarray | None, velocity: np.ndarray | None = None) -> None:
+        """Hand frame position [m] and velocity [m/s] (world frame) for the IK's hand task of ``side``
+        (upper-body level, above the posture); None frees the hand (posture only)."""
+        self._hands[side] = None if position is None else (np.asarray(position, float),
+                                                           np.zeros(3) if velocity is None else np.asarray(velocity, float))
+
+    def shift_balance(self, offset_xy: np.ndarray) -> None:
+        """Shift the CoM and ZMP references by ``offset_xy`` [m] (world frame), at most
+        ``MAX_BALANCE_SHIFT`` each way: a static lean for a task that moves the CoM against the pelvis
+        (arms reaching forward), so that the pelvis, not the CoM, stays where the plan put it."""
+        self._balance_shift = np.clip(np.asarray(offset_xy, float), -MAX_BALANCE_SHIFT, MAX_BALANCE_SHIFT)
 
     def set_time_scale(self, scale: float) -> None:
         """Physical / nominal duration of the gait from the next sample on (step period × scale)."""
@@ -190,9 +213,13 @@ class WalkingController:
             ik.feet[side].set_target(pin.SE3(pin.utils.rpyToMatrix(0.0, 0.0, ref.foot_yaw[side]), pos),
                                      np.concatenate([lin, [0.0, 0.0, wz]]))
         offset, offset_velocity = self.dynfilter.offset(tau)
-        com, com_velocity = ref.com + offset, ref.com_velocity + offset_velocity
+        com, com_velocity = ref.com + offset + self._balance_shift, ref.com_velocity + offset_velocity
         ik.com.set_target(np.array([*com, self.com_z]), np.array([*com_velocity, 0.0]))
         ik.posture.set_target(self.upper_body(t))
+        for side, hand in self._hands.items():
+            ik.hands[side].active = hand is not None
+            if hand is not None:
+                ik.hands[side].set_target(pin.SE3(np.eye(3), hand[0]), np.concatenate([hand[1], np.zeros(3)]))
         waist_yaw = np.arctan2(sum(np.sin(ref.foot_yaw[s]) for s in SIDES), sum(np.cos(ref.foot_yaw[s]) for s in SIDES))
         ik.waist.set_target(pin.SE3(pin.utils.rpyToMatrix(0.0, 0.0, waist_yaw), np.zeros(3)))
         ik.prepare(self.dt, retargetable=(ik.com,))  # the stabilizer moves the CoM target in step
@@ -211,7 +238,8 @@ class WalkingController:
         self.k += 1
         self.reference = ref
         self.estimate = self.estimator.estimate(state)
-        correction = self.stabilizer.correction(self.estimate, com, com_velocity, ref.zmp, self.dt)
+        self.measured_configuration = configuration(self.robot, state.base_pos, state.base_quat_xyzw, state.q)
+        correction = self.stabilizer.correction(self.estimate, com, com_velocity, ref.zmp + self._balance_shift, self.dt)
         ik = self.ik
         ik.com.set_target(np.array([*(com + correction), self.com_z]), ik.com.target_velocity)
         v = self._v = ik.finish(retargeted=(ik.com,))

@@ -5,7 +5,7 @@ embedded as PNG data, no network resources.
 Figures: ZMP reference vs measured (x and y, world frame, against time, single-support phases
 shaded); top view of the planned and measured CoM paths with the planned and realized footprints
 (start frame); peak |torque| per joint against its limit; vertical ground reaction force per foot
-against time with the limit line.
+against time with the limit line; for the drawer task, ``drawer_figures``.
 """
 
 from __future__ import annotations
@@ -18,10 +18,17 @@ from pathlib import Path
 
 import numpy as np
 
+from robot_ctrl.eval.drawer_figures import drawer_figures
+
 SUMMARY_KEYS = ("fell", "fall_time_s", "fall_reason", "time_s", "final_position_error_m", "final_yaw_error_deg",
                 "hand_error_m", "zmp_in_support_ratio", "zmp_error_rms_m", "zmp_error_max_m", "zmp_lateral_std_m",
                 "com_error_rms_m", "com_error_max_m", "step_length_error_m", "peak_torque_ratio", "peak_torque_joint",
-                "peak_grf_n", "grf_limit_n", "grf_over_limit", "dynfilter", "arms", "rtf")
+                "peak_grf_n", "grf_limit_n", "grf_over_limit", "dynfilter", "arms", "rtf",
+                # the drawer task
+                "success", "distance_m", "slot", "goal_jumps", "actions", "planned_step_lengths_m",
+                "realized_step_lengths_m", "step_length_error_max_m", "comfort_distance_m", "final_pelvis_to_drawer_m",
+                "drawer_opening_m", "drawer_opening_required_m", "drawer_pull_force_peak_n", "grasp", "hand_to_handle_m",
+                "hand_to_object_m", "hand_to_object_synth_only_m", "peak_ankle_pitch_torque_ratio")
 
 
 def render_report(run_dir: Path) -> Path:
@@ -43,6 +50,7 @@ def render_report(run_dir: Path) -> Path:
         figures.append(("Peak joint torques against their limits", _torque_figure(report)))
     if series is not None:
         figures.append(("Vertical ground reaction forces", _grf_figure(series)))
+        figures.extend(drawer_figures(series, report))
     rows = "".join(f"<tr><th>{html.escape(k)}</th><td>{html.escape(_fmt(report[k]))}</td></tr>"
                    for k in SUMMARY_KEYS if k in report)
     body = "".join(f'<h2>{html.escape(title)}</h2><img alt="{html.escape(title)}" src="data:image/png;base64,{png}">'

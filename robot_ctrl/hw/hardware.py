@@ -27,6 +27,7 @@ from typing import Iterator
 
 from robot_ctrl.hw.bus_config import load_bus_config
 from robot_ctrl.hw.disturbances import Disturbances
+from robot_ctrl.hw.drawer_cabinet import DrawerPlacement
 from robot_ctrl.hw.mujoco_backend import MujocoBackend
 from robot_ctrl.hw.mujoco_world import MujocoWorld
 from robot_ctrl.hw.robot_process import RobotProcess
@@ -38,19 +39,21 @@ from robot_ctrl.robot.model import RobotModel
 @contextmanager
 def open_hardware(kind: HardwareKind | str, robot: RobotModel, bus_config: str | None = None, viewer: bool = False,
                   control_dt: float = 0.005, video: Path | None = None,
-                  disturbances: Disturbances = Disturbances()) -> Iterator[SafetyLayer]:
-    """The adapter for ``kind``; emulators are started before and stopped after the block."""
+                  disturbances: Disturbances = Disturbances(),
+                  drawer: DrawerPlacement | None = None) -> Iterator[SafetyLayer]:
+    """The adapter for ``kind``; emulators are started before and stopped after the block.
+    ``drawer``: the walk-and-reach task's cabinet in the robot's world (``hw/drawer_cabinet.py``)."""
     kind = HardwareKind.parse(kind)
     if kind is HardwareKind.MUJOCO:
         robot_process = RobotProcess(functools.partial(MujocoBackend, robot, control_dt, viewer=viewer, video=video,
-                                                       disturbances=disturbances), robot.nj, robot.name)
+                                                       disturbances=disturbances, drawer=drawer), robot.nj, robot.name)
         hw = SafetyLayer(robot_process, SafetyLimits.for_simulation(robot, control_dt), clock=None)
         try:
             yield hw
         finally:
             hw.close()
         return
-    plant = MujocoBackend(robot, control_dt, viewer=viewer, video=video, disturbances=disturbances)
+    plant = MujocoBackend(robot, control_dt, viewer=viewer, video=video, disturbances=disturbances, drawer=drawer)
     limits = SafetyLimits.from_robot(robot, control_dt)
     if kind is HardwareKind.MIT_CAN_EMULATED:
         from robot_ctrl.hw.mit_can_backend import MitCanBackend

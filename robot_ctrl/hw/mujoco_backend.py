@@ -20,6 +20,7 @@ import numpy as np
 
 from robot_ctrl.hw.adapter import HardwareAdapter
 from robot_ctrl.hw.disturbances import Disturbances
+from robot_ctrl.hw.drawer_cabinet import GRASP_SIDE, DrawerCabinet, DrawerPlacement, drawer_scene_mjcf
 from robot_ctrl.hw.mujoco_world import MujocoWorld
 from robot_ctrl.hw.types import JointCommand, JointState
 from robot_ctrl.robot.joint_map import MujocoJointMap, pin_to_mujoco_qpos
@@ -30,17 +31,23 @@ class MujocoBackend(HardwareAdapter):
     """Simulated robot. ``base_xy_yaw`` places the robot's start pose in the world (m, m, rad);
     ``video``: an MP4 of the robot's own world (a shared world takes its own ``video``).
 
-    Without ``world`` the robot gets a world of its own (its cached single-robot scene). With
-    ``world``, ``prefix`` names the robot's copy in that scene (``<prefix>/`` joints and bodies).
+    Without ``world`` the robot gets a world of its own (its cached single-robot scene, with the
+    drawer cabinet of the walk-and-reach task if ``drawer`` places one). With ``world``, ``prefix``
+    names the robot's copy in that scene (``<prefix>/`` joints and bodies).
     """
 
     def __init__(self, robot: RobotModel, control_dt: float = 0.005, base_xy_yaw=(0.0, 0.0, 0.0),
                  viewer: bool = False, world: MujocoWorld | None = None, prefix: str | None = None,
-                 video: Path | None = None, disturbances: Disturbances = Disturbances()):
+                 video: Path | None = None, disturbances: Disturbances = Disturbances(),
+                 drawer: DrawerPlacement | None = None):
         super().__init__(robot.nj)
         self.robot = robot
         self._owns_world = world is None
-        self.world = (MujocoWorld(robot.mjcf_path, control_dt, viewer, video, disturbances.friction_scale)
+        if drawer is not None and world is not None:
+            raise ValueError("the drawer cabinet goes into a robot's own world, not a shared one")
+        hand = f"{robot.name}/{robot.config.hands[GRASP_SIDE]}"
+        scene = robot.mjcf_path if drawer is None else drawer_scene_mjcf(robot.mjcf_path, drawer.geometry, hand)
+        self.world = (MujocoWorld(scene, control_dt, viewer, video, disturbances.friction_scale)
                       if world is None else world)
         self.world.attach()
         self.m, self.d = self.world.m, self.world.d
@@ -92,6 +99,8 @@ class MujocoBackend(HardwareAdapter):
         self._servo_qvel_col = qvel_at + self.m.jnt_dofadr[joints]
         self._gear = self.m.actuator_gear[self._acts, 0].copy()
         self._joint_order = np.arange(self.nj)
+        self.cabinet = None if drawer is None else DrawerCabinet(
+            self.m, drawer, prefix, self._start, robot.config.hands, f"gripper_{GRASP_SIDE}_joint")
         self._disturb(disturbances)
 
     def _disturb(self, dist: Disturbances) -> None:
@@ -121,6 +130,8 @@ class MujocoBackend(HardwareAdapter):
         pin_to_mujoco_qpos(q, self.robot.q_index, self.map, self.d.qpos)
         mujoco.mj_kinematics(self.m, self.d)
         self.d.qpos[self.map.base_qpos + 2] -= self._lowest_foot_point()
+        if self.cabinet is not None:
+            self.cabinet.place(self.d, float(self.d.qpos[self.map.base_qpos + 2]))
         mujoco.mj_forward(self.m, self.d)
         mujoco.mj_rnePostConstraint(self.m, self.d)  # contact wrenches for the first read
         self._apply_gains(self.robot.kp, self.robot.kd, np.zeros(self.nj), np.zeros(self.nj))
@@ -151,6 +162,8 @@ class MujocoBackend(HardwareAdapter):
         self._delay.append(cmd)
         if len(self._delay) == self._delay.maxlen:  # the command written latency ago reaches the servos
             self._apply(self._delay[0])
+        if self.cabinet is not None:
+            self.cabinet.before_period(self.d)
         self.world.submit()
 
     def _apply(self, cmd: JointCommand) -> None:
@@ -188,6 +201,7 @@ class MujocoBackend(HardwareAdapter):
             foot_wrench=self._foot_wrenches(),
             tau_demand=self._peak_demand(),
             floor_contacts=self._floor_contacts(),
+            scene=None if self.cabinet is None else self.cabinet.reading(self.d),
         )
         return state if self._noise is None else self._noisy(state)
 

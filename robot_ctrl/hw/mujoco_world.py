@@ -54,7 +54,9 @@ class MujocoWorld:
         self._warmstart = np.zeros((1, m.nv))
         self._ctrl = np.zeros((1, n, m.nu))
         self._pushes: list[tuple[int, float, float, np.ndarray]] = []  # (body, start, end [s], world force)
-        self._ctrl_xfrc = None  # (1, n, nu + 6 nbody): controls and body forces, built when a push acts
+        # Mocap poses and equality switches (props such as the drawer cabinet) enter the rollout as inputs.
+        self._props = ((mujoco.mjtState.mjSTATE_MOCAP_POS | mujoco.mjtState.mjSTATE_MOCAP_QUAT if self.m.nmocap else 0)
+                       | (mujoco.mjtState.mjSTATE_EQ_ACTIVE if self.m.neq else 0))
         self._sensordata = np.zeros((1, n, m.nsensordata))
         self._rollout = mujoco.rollout.Rollout(nthread=0)  # runs on the calling thread
         self._video_path = video
@@ -97,7 +99,7 @@ class MujocoWorld:
         mujoco.mj_getState(self.m, self.d, self._start[0], self.STATE)
         self._warmstart[0] = self.d.qacc_warmstart
         self._ctrl[0] = self.d.ctrl
-        control, spec = self._pushed_control()
+        control, spec = self._control()
         self._rollout.rollout([self.m], [self.d], self._start, control, skip_checks=True, nstep=self.n_substeps,
                               control_spec=spec, initial_warmstart=self._warmstart,
                               state=self._after, sensordata=self._sensordata)
@@ -112,25 +114,24 @@ class MujocoWorld:
             if lag > 0:  # pace the viewer at real time
                 time.sleep(lag)
 
-    def _pushed_control(self) -> tuple[np.ndarray, int]:
-        """The rollout's control over the period: the servos' alone, or with each step's body forces
-        while a push acts (a force written into ``xfrc_applied`` before the rollout would not be)."""
-        if not self._pushes:  # the usual period: nothing beyond the servos
-            return self._ctrl, int(mujoco.mjtState.mjSTATE_CTRL)
+    def _control(self) -> tuple[np.ndarray, int]:
+        """The rollout's inputs over the period: the servos' controls; the body forces of each step
+        while a push acts (a force written into ``xfrc_applied`` before the rollout would not be);
+        in a scene with mocap bodies or equality constraints, their poses and switches as ``d`` holds
+        them (the rollout resets what its inputs do not carry)."""
         m, n, dt = self.m, self.n_substeps, self.m.opt.timestep
         times = self.d.time + dt * np.arange(n)
         active = [(b, (times >= t0 - 1e-9) & (times < t1 - 1e-9), f) for b, t0, t1, f in self._pushes]
         active = [a for a in active if a[1].any()]
-        if not active:
+        if not active and not self._props:  # the usual period: nothing beyond the servos
             return self._ctrl, int(mujoco.mjtState.mjSTATE_CTRL)
-        if self._ctrl_xfrc is None:
-            self._ctrl_xfrc = np.zeros((1, n, m.nu + 6 * m.nbody))
-        control = self._ctrl_xfrc
-        control[0, :, : m.nu] = self._ctrl[0]
-        control[0, :, m.nu :] = 0.0
-        for body, steps, force in active:
+        spec = mujoco.mjtState.mjSTATE_CTRL | (mujoco.mjtState.mjSTATE_XFRC_APPLIED if active else 0) | self._props
+        row = np.empty(mujoco.mj_stateSize(m, spec))
+        mujoco.mj_getState(m, self.d, row, spec)
+        control = np.tile(row, (1, n, 1))
+        for body, steps, force in active:  # the body forces follow the controls in the input vector
             control[0, steps, m.nu + 6 * body : m.nu + 6 * body + 3] = force
-        return control, int(mujoco.mjtState.mjSTATE_CTRL | mujoco.mjtState.mjSTATE_XFRC_APPLIED)
+        return control, int(spec)
 
     def close(self) -> None:
         if self.video is not None:

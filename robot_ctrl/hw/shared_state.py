@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from robot_ctrl.geometry import SIDES
-from robot_ctrl.hw.types import JointCommand, JointState
+from robot_ctrl.hw.types import SCENE_FIELDS, JointCommand, JointState
 
 
 class _Shared:
@@ -52,7 +52,8 @@ def _state_slots(nj: int) -> dict[tuple[str, str | None], int]:
     arrays = {"q": nj, "dq": nj, "tau": nj, "base_pos": 3, "base_quat_xyzw": 4, "base_linvel": 3, "base_angvel": 3,
               "base_linacc": 3}
     return {**{(name, None): n for name, n in arrays.items()}, **{("foot_wrench", side): 6 for side in SIDES},
-            ("tau_demand", None): nj, ("temperature", None): nj}
+            ("tau_demand", None): nj, ("temperature", None): nj,
+            ("scene", None): len(SCENE_FIELDS)}
 
 
 class SharedState(_Shared):

@@ -11,6 +11,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+#: ``JointState.scene``: the simulated scene's ground truth, for reports (never for control).
+SCENE_FIELDS = ("drawer_opening_m", "drawer_velocity_mps", "drawer_pull_force_n", "grasped", "left_hand_to_handle_m",
+                "right_hand_to_object_m", "cabinet_distance_m")
+
 
 class LifecycleState(enum.Enum):
     UNCONFIGURED = "unconfigured"
@@ -44,6 +48,7 @@ class JointState:
       saturation over the last control period [N·m] (simulation backends; shows a saturating servo).
     - ``floor_contacts``: names of bodies other than the feet that touch the floor (simulation).
     - ``temperature``: per joint, the servo's reported temperature [°C] (bus backends).
+    - ``scene``: the simulated scene's props, measured (``SCENE_FIELDS``; the drawer task's scene).
     """
 
     t: float
@@ -59,13 +64,14 @@ class JointState:
     tau_demand: np.ndarray | None = None
     floor_contacts: tuple[str, ...] = field(default=())
     temperature: np.ndarray | None = None
+    scene: np.ndarray | None = None
 
     def body_fields(self) -> dict:
         """The fields measured by body sensors (base pose, IMU, foot F/T, floor contacts), for a
         backend that reads the joints itself and takes the rest from another source."""
         return dict(base_pos=self.base_pos, base_quat_xyzw=self.base_quat_xyzw, base_linvel=self.base_linvel,
                     base_angvel=self.base_angvel, base_linacc=self.base_linacc, foot_wrench=self.foot_wrench,
-                    floor_contacts=self.floor_contacts)
+                    floor_contacts=self.floor_contacts, scene=self.scene)
 
 
 @dataclass(frozen=True)

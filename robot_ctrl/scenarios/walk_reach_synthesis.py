@@ -16,7 +16,7 @@ import numpy as np
 from robot_ctrl.robot.model import RobotModel
 from robot_ctrl.synthesis.demonstrations import DemonstrationSet, default_dataset_path
 from robot_ctrl.synthesis.primitives import WalkReachPrimitives
-from robot_ctrl.synthesis.synthesizer import Synthesizer, WalkReachGoal
+from robot_ctrl.synthesis.synthesizer import GoalJump, Synthesizer, WalkReachGoal
 
 
 def load_primitives(robot: RobotModel, dataset: Path | None = None) -> WalkReachPrimitives:
@@ -26,12 +26,6 @@ def load_primitives(robot: RobotModel, dataset: Path | None = None) -> WalkReach
         raise FileNotFoundError(f"no demonstrations at {path}; generate them with: robot-ctrl synth-demos "
                                 f"--robot {robot.name} --out {path}")
     return WalkReachPrimitives.learn(DemonstrationSet.load(path), robot)
-
-
-@dataclass(frozen=True)
-class GoalJump:
-    time: float  # [s] after the start
-    distance: float  # [m] new drawer distance in the start frame
 
 
 @dataclass

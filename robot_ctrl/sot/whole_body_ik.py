@@ -35,13 +35,27 @@ def hand_tool_dofs(robot: RobotModel) -> np.ndarray:
                      if any(h in model.supports[j] and h != j for h in hands)], dtype=int)
 
 
+def upper_body_dofs(robot: RobotModel) -> np.ndarray:
+    """Velocity indices of every joint but the legs' (torso, arms, grippers, head)."""
+    return np.array([robot.v_index[i] for i, n in enumerate(robot.joint_names) if not n.startswith("leg_")], dtype=int)
+
+
+#: A torso posture weight over the other joints' (``trunk_weight``) for tasks where the hands reach
+#: with the arms and the trunk keeps still, as a person's does: the reaches of the walk-and-reach
+#: task (Talos's torso servos cannot swing the whole upper body about quickly).
+TRUNK_POSTURE_FACTOR = 10.0
+
 #: A measured start configuration this close outside the URDF limits (encoder quantization,
 #: calibration) is clamped into them; farther out, the IK refuses it (``LimitViolation``).
 START_TOLERANCE = 0.01  # [rad]
 
 
 class WholeBodyIK:
-    def __init__(self, robot: RobotModel, q0: np.ndarray, gain: float = 40.0, posture_weight: float = 0.03):
+    def __init__(self, robot: RobotModel, q0: np.ndarray, gain: float = 40.0, posture_weight: float = 0.03,
+                 trunk_weight: float = 1.0, balance_with_arms: bool = True):
+        """``trunk_weight``: the torso joints' posture weight relative to the other joints'.
+        ``balance_with_arms``: the CoM task may move the torso, arms and head; without it, only the
+        legs (the pelvis) carry the CoM, and the upper body is left to its posture and hands."""
         self.robot = robot
         self.data = robot.pin.createData()
         self.q = np.array(q0, dtype=float)
@@ -52,11 +66,14 @@ class WholeBodyIK:
         self._prepared: tuple | None = None  # (q it was prepared at, dt, retargetable tasks)
         ids = robot.frame_ids
         self.feet = {s: FrameTask(f"{s}_foot", ids[f"{s}_foot"], gain=gain) for s in SIDES}
-        self.com = ComTask(gain=gain, locked_dofs=hand_tool_dofs(robot))
+        locked = hand_tool_dofs(robot) if balance_with_arms else upper_body_dofs(robot)
+        self.com = ComTask(gain=gain, locked_dofs=locked)
         self.waist = FrameTask("waist", ids["waist"], axes=("rx", "ry", "rz"), gain=gain)
         self.hands = {s: FrameTask(f"{s}_hand", ids[f"{s}_hand"], axes=("x", "y", "z"), gain=gain) for s in SIDES}
         self.posture = PostureTask("posture", robot.q_index, robot.v_index, robot.pin.nv, gain=gain,
                                    weight=posture_weight)
+        self.posture.set_joint_weights(np.where([n.startswith("torso_") for n in robot.joint_names],
+                                                trunk_weight, 1.0))
         self.solver = HierarchicalQP(
             [[self.feet["left"], self.feet["right"]], [self.com, self.waist],
              [self.hands["left"], self.hands["right"], self.posture]],

@@ -23,7 +23,8 @@ paths of the gripper in the frame of the standing pelvis (base_link at half-sitt
 z up), solved by the stack-of-tasks IK with the feet and the CoM held.
 
 Simplifications, stated: the gait scale (lengths x 0.45 and durations x 1.5 of the human's) and
-the comfort distance (the human 0.6 m scaled by the arm-length ratio) are our choice for Talos;
+the comfort distance (the human 0.6 m scaled by the arm-length ratio, plus Talos's longer hand) are
+our choice for Talos;
 the pelvis starts in steady walking (the thesis's robot sequences also start after a normal step);
 the arm reaches of action 2 are planned in the frame of the pelvis at its final position.
 
@@ -35,22 +36,23 @@ retargeted) can replace it as long as it has the same fields.
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 
 from robot_ctrl import ROOT
+from robot_ctrl.geometry.drawer import SLOTS, DrawerGeometry
 from robot_ctrl.geometry.minimum_jerk import minimum_jerk
 from robot_ctrl.robot.model import RobotModel
-from robot_ctrl.sot.whole_body_ik import WholeBodyIK
+from robot_ctrl.sot.whole_body_ik import TRUNK_POSTURE_FACTOR, WholeBodyIK
 
 FORMAT_VERSION = 1
 PELVIS_CHANNELS = ("vx", "vy", "wz")
-SLOTS = ("front_left", "front_right", "back_left", "back_right")
 HUMAN_COMFORT_DISTANCE = 0.6  # [m] pelvis to drawer during the last action (thesis 3.4.2)
 HUMAN_ARM_LENGTH = 0.58  # [m] shoulder to wrist of a 1.75 m adult (Winter: 0.332 of the height)
+HUMAN_HAND_GRIP = 0.075  # [m] wrist to the centre of the closed palm (Winter: hand 0.108 of the height, x 0.4)
 
 
 def upper_body_joints(robot: RobotModel) -> tuple[str, ...]:
@@ -58,35 +60,18 @@ def upper_body_joints(robot: RobotModel) -> tuple[str, ...]:
     return tuple(n for n in robot.joint_names if n.startswith(("torso_", "arm_", "head_")))
 
 
-def comfort_distance(robot: RobotModel) -> float:
-    """Pelvis-to-drawer distance of the last action [m]: the human 0.6 m x robot/human arm length.
-    The robot's arm length is shoulder (arm_left_2) to elbow (arm_left_4) to wrist (arm_left_7)."""
+def comfort_distance(robot: RobotModel, geometry: DrawerGeometry = DrawerGeometry()) -> float:
+    """Pelvis-to-drawer distance of the last action [m]: the human 0.6 m x robot/human arm length,
+    plus how much farther beyond its wrist the robot's hand closes than a person's palm does. The
+    robot's arm is shoulder (arm_left_2) to elbow (arm_left_4) to wrist (arm_left_7); its hand closes
+    at the handle bar, ``bar_from_grip`` beyond the gripper base."""
     data = robot.pin.createData()
     pin.framesForwardKinematics(robot.pin, data, robot.q_half_sitting)
     p = [data.oMi[robot.pin.getJointId(f"arm_left_{i}_joint")].translation for i in (2, 4, 7)]
     arm = float(np.linalg.norm(p[1] - p[0]) + np.linalg.norm(p[2] - p[1]))
-    return HUMAN_COMFORT_DISTANCE * arm / HUMAN_ARM_LENGTH
-
-
-@dataclass(frozen=True)
-class DrawerGeometry:
-    """Drawer and object positions relative to the drawer's front panel, in the frame of the
-    pelvis standing at the comfort distance (x forward, y left, z up, metres)."""
-
-    handle_grip: tuple[float, float, float] = (-0.10, 0.10, -0.02)  # left gripper base at the handle
-    clearance: dict = field(default_factory=lambda: {"front": 0.14, "back": 0.28})  # thesis 3.3.1
-    margin: float = 0.04  # extra opening beyond the clearance
-    object_depth: dict = field(default_factory=lambda: {"front": 0.06, "back": 0.26})  # behind the panel
-    object_y: dict = field(default_factory=lambda: {"left": -0.02, "right": -0.16})
-    object_z: float = -0.10  # right gripper base above the object
-
-    def opening(self, slot: str) -> float:
-        return self.clearance[slot.split("_")[0]] + self.margin
-
-    def object_target(self, slot: str, comfort: float) -> np.ndarray:
-        depth, side = slot.split("_")
-        return np.array([comfort - self.opening(slot) + self.object_depth[depth], self.object_y[side],
-                         self.object_z])
+    gripper = data.oMf[robot.frame_ids["left_hand"]].translation
+    hand = float(np.linalg.norm(gripper - p[2]) + np.linalg.norm(geometry.bar_from_grip))
+    return HUMAN_COMFORT_DISTANCE * arm / HUMAN_ARM_LENGTH + hand - HUMAN_HAND_GRIP
 
 
 @dataclass(frozen=True)
@@ -144,13 +129,13 @@ def default_dataset_path(robot: str) -> Path:
 
 # Nominal action timing and the training grid, robot scale: human lengths x 0.45, durations x 1.5
 # (a 1.6 s normal cycle is two of the WPG's 0.8 s steps).
-# action -> (length [m], duration [s], exponent of T ∝ L^e). The short cycle brings the pelvis to
-# rest, so its duration grows almost in proportion to its length (mean speed 0.17-0.25 m/s, peak
-# below the WPG's 0.3 m per 0.8 s step).
-NOMINAL = {1: (0.34, 1.6, 0.3), 2: (0.44, 2.0, 0.7)}
-STAND_DURATION = {"front": 1.8, "back": 2.2}  # [s] action 3: a deeper pull takes longer
+# action -> (length [m], duration [s], exponent of T ∝ L^e). Both cycles keep the cadence of two
+# 0.8 s steps within ±20 %, so that the walking pattern generator can take each action as two of
+# its steps at a time scale near 1; the short cycle is the γ share of the approach (step_planning).
+NOMINAL = {1: (0.34, 1.6, 0.3), 2: (0.28, 1.6, 0.3)}
+STAND_DURATION = {"front": 2.6, "back": 3.0}  # [s] action 3: a deeper pull takes longer; slow enough for the arm servos
 L1_GRID = np.linspace(0.26, 0.42, 6)
-L2_GRID = np.linspace(0.20, 0.68, 5)
+L2_GRID = np.linspace(0.14, 0.46, 5)
 
 
 def action_duration(action: int, length: float, jitter: float = 0.0) -> float:
@@ -165,6 +150,12 @@ class _Trial:
     def __init__(self, robot: RobotModel, dt: float):
         self.robot, self.dt = robot, dt
         self.ik = WholeBodyIK(robot, robot.q_half_sitting)
+        # A person reaches with the arms, keeps the trunk quiet and the hips where they are: no CoM
+        # task (it would swing the other arm to hold the centre of mass); the legs hold the pelvis
+        # through their posture, weighted as the torso's.
+        self.ik.posture.set_joint_weights(np.where([n.startswith(("torso_", "leg_")) for n in robot.joint_names],
+                                                   TRUNK_POSTURE_FACTOR, 1.0))
+        self.ik.com.active = False
         self.base = self.ik.posture.target.copy()  # half-sitting inside the soft limits
         self.upper = np.array([robot.joint_names.index(n) for n in upper_body_joints(robot)])
         self.index = {n: i for i, n in enumerate(robot.joint_names)}
@@ -247,7 +238,7 @@ def demonstrate(robot: RobotModel, L1: float, L2: float, slot: str, durations: t
     vx = L1 / T1 * fades + periodic[:, 0]
     bump = (1 - np.cos(2 * np.pi * taus)) / 2  # sets the length without changing the end speeds
     vx += (L2 - dt * np.sum(vx)) / (dt * np.sum(bump)) * bump
-    handle = np.array([comfort + geometry.handle_grip[0], geometry.handle_grip[1], geometry.handle_grip[2]])
+    handle = geometry.handle_target(comfort)
     reach_start = int(0.35 * n[1])
     left_from = None
     for i, tau in enumerate(taus):

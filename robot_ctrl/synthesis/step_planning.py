@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-GAMMA = 0.385  # share of the normal gait cycle in D − c (thesis, fitted to human data)
+GAMMA = 0.385  # share of the short (last) gait cycle in D − c (thesis 3.4.2, fitted to human data)
 BETA = 0.2  # width of the blending interval, thesis β = 1/5
 
 
@@ -41,12 +41,16 @@ def plan_steps(distance: float, comfort: float, ranges: ActionRanges, gamma: flo
     """Plan the remaining actions for a pelvis-to-goal ``distance`` [m].
 
     End-state comfort: the last action (3) starts at ``comfort`` from the goal. The rest,
-    ``R = distance − comfort``, is split ``D1 = R γ``, ``D2 = R (1 − γ)`` (thesis 3.4.2). When D1 would
-    exceed the normal range, ``n`` extra normal cycles are added with the same proportion,
-    ``D1 = R / (n + 1/γ)`` for each of the ``n + 1`` normal cycles and ``D2 = R − (n + 1) D1``. When D1
-    would be shorter than the normal range, only short cycles are planned: one with ``D2 = R``, or
-    ``k`` equal ones if R exceeds the short range. ``after_short``: the current action is already a
-    short cycle (the pelvis is slowing down), so only short cycles may follow.
+    ``R = distance − comfort``, is split ``D1 = R (1 − γ)``, ``D2 = R γ``: the short cycle that ends at
+    rest takes the γ share. Thesis 3.4.2 prints the split the other way round (``D1 = R γ``), but its
+    own HRP-2 runs (3.8.4) walked a first cycle of 50.5-56.1 cm and a second of 16.3-35.9 cm, which
+    only ``D2 = R γ`` fits, and the other order makes the robot speed up (a cycle 1.6 times the
+    normal one) just before it must stop; we follow the runs. When D1 would exceed the normal range,
+    ``n`` extra normal cycles are added with the same proportion, ``D1 = R / (n + 1 + ρ)`` for each of
+    the ``n + 1`` normal cycles and ``D2 = ρ D1`` with ``ρ = γ / (1 − γ)``. When D1 would be shorter
+    than the normal range, only short cycles are planned: one with ``D2 = R``, or ``k`` equal ones if
+    R exceeds the short range. ``after_short``: the current action is already a short cycle (the
+    pelvis is slowing down), so only short cycles may follow.
     """
     if not (math.isfinite(distance) and math.isfinite(comfort)):
         raise ValueError(f"distance = {distance} m and comfort = {comfort} m must be finite")
@@ -58,11 +62,12 @@ def plan_steps(distance: float, comfort: float, ranges: ActionRanges, gamma: flo
     if R < lo2:
         raise ValueError(f"goal distance = {distance:.3f} m is too close: it must be at least comfort distance + "
                          f"shortest step = {comfort + lo2:.3f} m")
-    if after_short or R * gamma < lo1:
+    rho = gamma / (1 - gamma)
+    if after_short or R / (1 + rho) < lo1:
         k = max(1, math.ceil(R / hi2))
         return StepPlan((2,) * k + (3,), (R / k,) * k + (0.0,))
-    n = max(0, math.ceil(R / hi1 - 1 / gamma))
-    D1 = R / (n + 1 / gamma)
+    n = max(0, math.ceil(R / hi1 - 1 - rho))
+    D1 = R / (n + 1 + rho)
     return StepPlan((1,) * (n + 1) + (2, 3), (D1,) * (n + 1) + (R - (n + 1) * D1, 0.0))
 
 

@@ -47,6 +47,14 @@ class WalkReachGoal:
 
 
 @dataclass(frozen=True)
+class GoalJump:
+    """The drawer moves: at ``time`` [s] after the start it is ``distance`` [m] from the start pelvis."""
+
+    time: float
+    distance: float
+
+
+@dataclass(frozen=True)
 class SynthesisOutput:
     pelvis_velocity: np.ndarray  # (vx, vy, ωz) in the pelvis heading frame [m/s, m/s, rad/s]
     upper_body_q: np.ndarray  # upper-body joint angles [rad], order of ``upper_body_joints``
@@ -56,6 +64,17 @@ class SynthesisOutput:
     def __iter__(self):
         """``v, q, phase, action = synth.step(dt, goal)``."""
         return iter((self.pelvis_velocity, self.upper_body_q, self.phase, self.action))
+
+
+@dataclass(frozen=True)
+class SynthesisPreview:
+    """The synthesis ahead of now: at times ``t`` [s] after it, the pelvis velocity (n, 3), the
+    upper-body angles (n, J) and the action (0 once the sequence has ended)."""
+
+    t: np.ndarray
+    pelvis_velocity: np.ndarray
+    upper_body_q: np.ndarray
+    action: np.ndarray
 
 
 @dataclass
@@ -145,6 +164,30 @@ class Synthesizer:
             raise FloatingPointError("synthesis produced a non-finite value; refusing to output it")
         self._last = SynthesisOutput(values[:3], values[self._upper], float(phase(c.x[0])), self.plan[c.index].action)
         return self._last
+
+    def preview(self, horizon: float, dt: float) -> SynthesisPreview:
+        """The references of the next ``horizon`` [s] at steps of ``dt`` [s], from a rollout of this
+        same synthesis (the goal as it stands); the synthesizer itself does not move. After the
+        sequence ends the last references are held."""
+        c = self._cursor.copy()
+        n = max(1, int(round(horizon / dt)))
+        velocity, upper, action = np.zeros((n, 3)), np.zeros((n, len(self.primitives.channels) - 3)), np.zeros(n, int)
+        last = self._last
+        for k in range(n):
+            if not c.finished:
+                values = np.clip(_advance(self.primitives, self.plan, c, dt), self.primitives.lower, self.primitives.upper)
+                if not c.finished:
+                    last = SynthesisOutput(values[:3], values[self._upper], 0.0, self.plan[c.index].action)
+            if last is None:
+                continue
+            velocity[k], upper[k] = (last.pelvis_velocity, last.upper_body_q) if not c.finished else (0.0, last.upper_body_q)
+            action[k] = 0 if c.finished else last.action
+        return SynthesisPreview(dt * np.arange(1, n + 1), velocity, upper, action)
+
+    @property
+    def action_index(self) -> int:
+        """Index of the action under way in :attr:`plan`."""
+        return self._cursor.index
 
     # -- planning -----------------------------------------------------------------------------------
     def _set_goal(self, goal: WalkReachGoal) -> None:

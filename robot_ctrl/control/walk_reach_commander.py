@@ -1,0 +1,224 @@
+"""WalkReachCommander: the walk-and-reach synthesis drives a walking controller (thesis 3.8, Fig. 3.40).
+
+The synthesizer (stage 1) runs at the control rate; what it gives reaches the controller only
+through its command API:
+
+- pelvis velocity → the pattern generator's velocity reference, at every WPG sample. The MPC plans
+  with one velocity over its 1.6 s horizon, so it gets the mean of the synthesizer's own rollout
+  (:meth:`Synthesizer.preview`) over the next step, not the in-cycle signal (whose sway and speed
+  dips the MPC's own gait makes), plus a feedback of the planned pelvis's lag behind the
+  synthesized advance, so that each action ends where the synthesis planned it;
+- actions ↔ gait: the synthesis starts at a touch-down and one action is two steps; the gait's
+  time scale follows the duration of the action under way (``set_time_scale``). The walk before
+  (the WPG's start from standing and ``WALK_IN_STEPS`` steps at the first action's mean speed) is
+  not part of the synthesis: the thesis's robot sequences also start after a step. At the last
+  short cycle the controller is told to stop with the pelvis at the comfort distance (``stop_at``);
+- upper-body angles → the posture task now and the dynamic filter's preview (``posture(t)`` over
+  the horizon from the same rollout);
+- the hands' final approach, the grasp and the pull: :class:`~robot_ctrl.control.drawer_hands.DrawerHands`;
+- from the last short cycle on, the CoM leans by what the reaching arms move it ahead of the pelvis
+  (``shift_balance``), so that the pelvis, not the CoM, ends at the comfort distance.
+
+Frames: ``start`` is the base's world pose (x, y, yaw) at the start; distances are along its heading.
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+
+from robot_ctrl.control.drawer_hands import DrawerHands
+from robot_ctrl.control.drawer_targets import DrawerTargets
+from robot_ctrl.control.synthesized_body import SynthesizedBody
+from robot_ctrl.control.walking_controller import PlanSample, WalkingController
+from robot_ctrl.geometry import SIDES, minimum_jerk, rotation
+from robot_ctrl.synthesis.primitives import WalkReachPrimitives
+from robot_ctrl.synthesis.synthesizer import SynthesisPreview, Synthesizer, WalkReachGoal
+from robot_ctrl.wpg.footstep import Footstep
+
+POSITION_GAIN = 2.5  # [1/s] feedback of the planned pelvis's lag behind the synthesized advance
+WALK_IN_STEPS = 2  # the synthesis starts at this touch-down, the gait at its steady speed
+WALK_IN_BLEND = 1.2  # [s] the upper body blends from its start posture to the synthesis's first one
+PREVIEW_DT = 0.02  # [s] step of the synthesizer's rollout for the WPG and the filter
+MAX_ACTION_TIME = 4.0  # [s] longer than any learned action
+STANCE_SHARE = 0.5  # of the reach's final CoM shift taken by placing the stop stance ahead
+MAX_STANCE_SHIFT = 0.04  # [m]
+PELVIS_GAIN = 1.0  # [1/s] standing: integral gain of the measured pelvis's error into the lean
+GRASP_TIMEOUT = 2.0  # [s] after the sequence, a hand that never got hold of the handle gives up
+
+
+class WalkReachCommander:
+    def __init__(self, controller: WalkingController, primitives: WalkReachPrimitives, targets: DrawerTargets,
+                 log: Callable[[str], None] = print):
+        self.controller, self.primitives, self.targets, self.log = controller, primitives, targets, log
+        self.body = SynthesizedBody(controller.robot)
+        self.hands = DrawerHands(controller, targets, self.body)
+        self.heading = rotation(targets.start[2])
+        self.base_posture = controller.ik.posture.target.copy()
+        self._posture_now = self.base_posture.copy()
+        self._preview: SynthesisPreview | None = None
+        self._preview_t = 0.0
+        self.feet_offset = {s: self.heading.T @ (f.xy - targets.start[:2]) for s, f in controller.footsteps().items()}
+        self.synth: Synthesizer | None = None
+        self.synth_start_advance = 0.0  # measured pelvis advance when the synthesis started [m]
+        self.output = None  # the synthesizer's last output of a running sequence
+        self.stopping_at: float | None = None  # the pelvis advance the controller was told to stop at [m]
+        self.boundaries: list[tuple[float, int]] = []  # (time [s], action; 0: the end) at each action start
+        self._stance_shift = 0.0  # [m] the stop stance ahead of the pelvis's target (:meth:`_stop`)
+        self._lean_integral = 0.0  # [m]
+        self.t = 0.0
+        self._com_from_pelvis = controller.ik.com_position()[:2] - controller.ik.q[:2]  # world axes
+        self._com_offset = float(self._com_from_pelvis @ self.heading[:, 0])
+        # Walk off at the first action's mean speed until the synthesis starts; meanwhile the upper
+        # body blends to the synthesis's first posture.
+        dry = Synthesizer(primitives, self._goal(0.0))
+        first = dry.plan[0]
+        self._walk_in_posture = self.base_posture.copy()
+        self._walk_in_posture[self.body.upper] = dry.step(controller.dt).upper_body_q
+        controller.set_upper_body(self.posture)
+        controller.set_time_scale(float(np.clip(first.duration / (2 * controller.params.step_period), 0.5, 2.0)))
+        controller.set_velocity(first.length / first.duration, 0.0, 0.0)
+        controller.on_sample(self._on_sample)
+
+    def advance(self) -> float:
+        """Measured pelvis advance along the start heading [m]."""
+        est = self.controller.estimate
+        return 0.0 if est is None else self.targets.advance(est.base_xy_yaw)
+
+    def synthesized_hand_at_measured(self, side: str) -> np.ndarray:
+        """The synthesized arm angles alone, at the measured pelvis pose and legs: the hand's position."""
+        return self.body.hands(self.output.upper_body_q, self.controller.measured_configuration)[side]
+
+    @property
+    def finished(self) -> bool:
+        """The sequence has ended, and the drawer is pulled (or the hand never got hold of it)."""
+        if self.synth is None or not self.synth.finished:
+            return False
+        return self.hands.pulled or self.t - self.boundaries[-1][0] > GRASP_TIMEOUT
+
+    def _goal(self, t: float) -> WalkReachGoal:
+        """The drawer in the synthesizer's start frame (the pelvis where the synthesis started)."""
+        return WalkReachGoal(self.targets.distance(t) - self.synth_start_advance, self.targets.slot)
+
+    # The posture the controller's IK and dynamic filter follow ----------------------------------
+    def posture(self, t: float) -> np.ndarray:
+        """Posture-task target (joint order) at time ``t`` [s]: the synthesized upper body, from the
+        rollout for times ahead of now."""
+        if self._preview is None or t <= self.t + 1e-9:
+            return self._posture_now
+        q = self._posture_now.copy()
+        p = self._preview
+        times = self._preview_t + p.t
+        q[self.body.upper] = [np.interp(t, times, p.upper_body_q[:, j]) for j in range(len(self.body.upper))]
+        return q
+
+    # Per tick -------------------------------------------------------------------------------------
+    def begin_tick(self, t: float) -> None:
+        self.t = t
+        for jump in self.targets.jumps:
+            if abs(t - jump.time) < self.controller.dt / 2:
+                self.log(f"t = {t:6.2f} s  the drawer moved to {jump.distance:.2f} m")
+        if self.synth is None:
+            s, _ = minimum_jerk(t, WALK_IN_BLEND)
+            self._posture_now = self.base_posture + s * (self._walk_in_posture - self.base_posture)
+            return
+        if not self.synth.finished:
+            index = self.synth.action_index
+            output = self.synth.step(self.controller.dt, self._goal(t))
+            if self.synth.finished:
+                self.boundaries.append((t, 0))
+            else:
+                self.output = output
+                if self.synth.action_index != index:
+                    self.boundaries.append((t, self.synth.plan[self.synth.action_index].action))
+        share = 1.0 if self.synth.finished else self.output.phase / (2 * np.pi)
+        upper = self.output.upper_body_q
+        self._posture_now = self.base_posture.copy()
+        self._posture_now[self.body.upper] = upper
+        if self.output.action == 3:
+            self.hands.stand(t, share, upper, self._posture_now, self._final_upper)
+        elif self._last_short:
+            self.hands.reach(t, share, upper, self._posture_now, self._final_upper)
+        self._lean(share)
+
+    @property
+    def _last_short(self) -> bool:
+        return self.synth.plan[self.synth.action_index].action == 2 and \
+            self.synth.action_index == len(self.synth.plan) - 2
+
+    def _final_upper(self) -> np.ndarray:
+        """The upper-body angles at the end of the sequence (the synthesizer's rollout)."""
+        if self.synth.finished:
+            return self.output.upper_body_q
+        return self.synth.preview(2 * MAX_ACTION_TIME, PREVIEW_DT).upper_body_q[-1]
+
+    def _lean(self, share: float) -> None:
+        """From the last short cycle on, lean the CoM by what the synthesized arms move it against the
+        pelvis, less the stance's own forward shift (:meth:`_stop`), so that the pelvis ends at the
+        comfort distance with the ZMP a few centimetres off the soles' centre; standing, the measured
+        pelvis's remaining error is integrated in as well."""
+        c = self.controller
+        if self.stopping_at is None:
+            return
+        s = 1.0 if self.output.action == 3 else minimum_jerk(share, 0.5)[0]
+        forward = self.targets.forward[:2]
+        arms = c.ik.com_position()[:2] - c.ik.q[:2] - self._com_from_pelvis - forward * self._stance_shift
+        if self.output.action == 3:
+            self._lean_integral += PELVIS_GAIN * c.dt * (self.stopping_at - self.advance())
+        c.shift_balance(s * arms + self._lean_integral * forward)
+
+    # Per WPG sample -------------------------------------------------------------------------------
+    def _on_sample(self, sample: PlanSample) -> None:
+        c = self.controller
+        if self.synth is None:
+            if len(c.touchdowns) < WALK_IN_STEPS:
+                return
+            self._start_synthesis(sample)
+        if self.synth.finished:
+            return
+        plan = self.synth.plan[self.synth.action_index]
+        self._preview = self.synth.preview(c.params.horizon * c.params.sample_time, PREVIEW_DT)
+        self._preview_t = sample.t
+        if plan.action == 3:
+            return
+        c.set_time_scale(float(np.clip(plan.duration / (2 * c.params.step_period), 0.5, 2.0)))
+        if self._last_short:
+            target = self.synth_start_advance + self.synth.targets[-1]
+            if self.stopping_at != target:
+                self._stop(target, sample.t)
+            return
+        ahead = self._preview.t <= plan.duration / 2  # the next step
+        v = self._preview.pelvis_velocity[ahead].mean(axis=0)
+        lag = self.synth_start_advance + self.synth.progress - self._planned_advance(sample)
+        c.set_velocity(float(v[0] + POSITION_GAIN * lag), 0.0, 0.0)
+
+    def _stop(self, target: float, t: float) -> None:
+        """Stop with the pelvis ``target`` [m] from the start. The synthesized reach moves the CoM
+        forward of the pelvis (the arms go out); the stance is put forward by ``STANCE_SHARE`` of that
+        shift at the end of the sequence, so the lean that keeps the pelvis in place stays small."""
+        c = self.controller
+        final = self.body.com_from_pelvis(self._final_upper(), c.ik.q) - self._com_from_pelvis
+        forward = self.targets.forward[:2]
+        self._stance_shift = float(np.clip(final @ forward * STANCE_SHARE, 0.0, MAX_STANCE_SHIFT))
+        self.stopping_at = target
+        ahead = target + self._stance_shift
+        start = self.targets.start
+        c.stop_at(*(Footstep(s, *(start[:2] + self.heading @ (self.feet_offset[s] + [ahead, 0.0])), float(start[2]))
+                    for s in SIDES))
+        self.log(f"t = {t:6.2f} s  last short cycle: stopping with the pelvis {target:.3f} m from the start "
+                 f"(feet {self._stance_shift * 100:.1f} cm ahead of it for the reach)")
+
+    def _planned_advance(self, sample: PlanSample) -> float:
+        return self.targets.advance(sample.com_xy) - self._com_offset
+
+    def _start_synthesis(self, sample: PlanSample) -> None:
+        t = sample.t
+        self.synth_start_advance = self.advance()
+        # The plan's CoM leads the pelvis by what the walking posture puts ahead of it: measured here,
+        # at a touch-down, as every action boundary is.
+        self._com_offset = self._planned_advance(sample) + self._com_offset - self.synth_start_advance
+        self.synth = Synthesizer(self.primitives, self._goal(t), self.controller.dt)
+        self.boundaries.append((t, self.synth.plan[0].action))
+        self.log(f"t = {t:6.2f} s  synthesis starts {self.synth_start_advance:.3f} m from the start: actions "
+                 f"{[p.action for p in self.synth.plan]}, lengths {[round(p.length, 3) for p in self.synth.plan]} m")

@@ -1,0 +1,122 @@
+"""DrawerRecorder: what the walk-and-reach drawer task is judged by, measured in the simulation.
+
+Per tick: the measured base pose, each ankle pitch servo's demanded torque, the vertical ground
+reaction forces and the drawer scene's ground truth (``JointState.scene``: opening, pull force,
+grasp, both hands' distances to their targets). The report (:meth:`DrawerRecorder.report`):
+
+- ``realized_step_lengths_m``: the measured pelvis advance along the start heading over each
+  synthesized action, between the ticks at which the synthesis switched action (the synthesizer's
+  own sum is ``planned_step_lengths_m``'s counterpart, not this);
+- ``final_pelvis_to_drawer_m``: measured pelvis to the drawer's closed front panel, at the end;
+- ``hand_to_handle_m``: left gripper base to the handle's grip point when the grasp switched on
+  (or its least value if it never did); ``hand_to_object_m``: right gripper base to the object's
+  reach point at the end; ``hand_to_object_synth_only_m``: the synthesized arm angles alone, by
+  forward kinematics at the measured pelvis pose and legs, against the same point;
+- ``success``: no fall, every step within ``STEP_TOLERANCE``, pelvis within ``COMFORT_TOLERANCE`` of
+  the comfort distance, the drawer open by at least the required clearance, the right hand within
+  ``OBJECT_TOLERANCE`` of the object.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from robot_ctrl.geometry import SIDES, base_pose_xy_yaw
+from robot_ctrl.hw.types import SCENE_FIELDS
+
+STEP_TOLERANCE = 0.010  # [m] per action (thesis Fig. 3.41: below 10 mm)
+COMFORT_TOLERANCE = 0.03  # [m]
+OBJECT_TOLERANCE = 0.02  # [m]
+
+
+class DrawerRecorder:
+    def __init__(self, commander, robot, start: np.ndarray):
+        """``commander``: the :class:`~robot_ctrl.control.walk_reach_commander.WalkReachCommander`."""
+        self.commander, self.robot, self.start = commander, robot, np.asarray(start, float)
+        names = list(robot.joint_names)
+        self._ankles = [names.index(f"leg_{s}_5_joint") for s in SIDES]  # ankle pitch
+        self._grippers = [names.index(f"gripper_{s}_joint") for s in SIDES]
+        self.ankle_limit = robot.effort[self._ankles]
+        self.rows: list[np.ndarray] = []
+        self.synth_hand_error = np.nan
+
+    def on_command(self, tick) -> None:
+        pass
+
+    def on_state(self, tick) -> None:
+        s = tick.states[0]
+        base = base_pose_xy_yaw(s.base_pos, s.base_quat_xyzw)
+        tau = s.tau_demand if s.tau_demand is not None else s.tau
+        grf = [float((s.foot_wrench or {}).get(side, np.zeros(6))[2]) for side in SIDES]
+        scene = s.scene if s.scene is not None else np.full(len(SCENE_FIELDS), np.nan)
+        self.rows.append(np.concatenate([[s.t], base, tau[self._ankles], grf, s.q[self._grippers], scene]))
+        c = self.commander
+        if c.output is not None and c.output.action == 3:
+            target = c.targets.object(tick.t, c.hands.opening)
+            self.synth_hand_error = float(np.linalg.norm(c.synthesized_hand_at_measured("right") - target))
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        a = np.array(self.rows).reshape(-1, 10 + len(SCENE_FIELDS))
+        out = {"t": a[:, 0], "base": a[:, 1:4], "ankle_pitch_torque": a[:, 4:6], "grf": a[:, 6:8],
+               "gripper_q": a[:, 8:10]}
+        out.update({name: a[:, 10 + i] for i, name in enumerate(SCENE_FIELDS)})
+        return out
+
+    def advance(self, a: dict, t: float) -> float:
+        """Measured pelvis advance along the start heading at time ``t`` [m]."""
+        k = min(int(np.searchsorted(a["t"], t - 1e-9)), len(a["t"]) - 1)
+        return float((a["base"][k, :2] - self.start[:2]) @ [np.cos(self.start[2]), np.sin(self.start[2])])
+
+    def report(self, fell: bool, geometry, slot: str, comfort: float) -> dict:
+        a, c = self.arrays(), self.commander
+        plan = c.synth.plan if c.synth is not None else []
+        times = [t for t, _ in c.boundaries]
+        planned = [p.length for p in plan[: max(len(times) - 1, 0)]]
+        realized = [self.advance(a, t1) - self.advance(a, t0) for t0, t1 in zip(times, times[1:])]
+        errors = [r - p for r, p in zip(realized, planned)]
+        grasped = a["grasped"] > 0.5
+        at_grasp = a["left_hand_to_handle_m"][np.argmax(grasped)] if grasped.any() else np.nanmin(a["left_hand_to_handle_m"])
+        final_distance = float(a["cabinet_distance_m"][-1]) - self.advance(a, a["t"][-1])
+        opening, required = float(a["drawer_opening_m"][-1]), geometry.required_opening(slot)
+        hand_to_object = float(a["right_hand_to_object_m"][-1])
+        step_error = float(np.abs(errors).max()) if errors else None
+        ankle = np.abs(a["ankle_pitch_torque"]).max(axis=0) / self.ankle_limit
+        success = bool(not fell and step_error is not None and step_error <= STEP_TOLERANCE
+                       and abs(final_distance - comfort) <= COMFORT_TOLERANCE and opening >= required
+                       and hand_to_object <= OBJECT_TOLERANCE)
+        return dict(
+            success=success, actions=[action for _, action in c.boundaries if action],
+            planned_step_lengths_m=_round(planned), realized_step_lengths_m=_round(realized),
+            step_length_errors_m=_round(errors), step_length_error_max_m=_round(step_error),
+            comfort_distance_m=round(comfort, 4), final_pelvis_to_drawer_m=round(final_distance, 4),
+            drawer_opening_m=round(opening, 4), drawer_opening_required_m=required,
+            drawer_pull_force_peak_n=round(float(np.nanmax(a["drawer_pull_force_n"])), 2),
+            grasp="weld" if grasped.any() else "none",
+            grasp_time_s=round(float(a["t"][np.argmax(grasped)]), 3) if grasped.any() else None,
+            hand_to_handle_m=round(float(at_grasp), 4), hand_to_object_m=round(hand_to_object, 4),
+            hand_to_object_synth_only_m=round(self.synth_hand_error, 4),
+            peak_ankle_pitch_torque_ratio={side: round(float(r), 4) for side, r in zip(SIDES, ankle)},
+            replans=c.synth.replans if c.synth is not None else 0,
+        )
+
+    def save(self, out_dir: Path) -> Path:
+        """Append the drawer's series to the walk's ``timeseries.npz`` (action boundaries too)."""
+        path = Path(out_dir) / "timeseries.npz"
+        with np.load(path) as f:
+            data = dict(f)
+        a = self.arrays()
+        data.update({f"drawer_{k}" if k in ("t", "base", "grf") else k: v for k, v in a.items()})
+        data["ankle_pitch_limit_nm"] = self.ankle_limit
+        data["action_starts"] = np.array([[t, action] for t, action in self.commander.boundaries]).reshape(-1, 2)
+        np.savez_compressed(path, **data)
+        return path
+
+
+def _round(values, digits: int = 5):
+    if values is None:
+        return None
+    if isinstance(values, float):
+        return round(values, digits)
+    return [round(float(v), digits) for v in values]

@@ -1,0 +1,67 @@
+"""The drawer of the walk-and-reach task: one source of truth for the demonstrations that teach the
+synthesis where the hands go and for the cabinet simulated in MuJoCo.
+
+Frame: the pelvis (base_link) standing at the comfort distance in front of the closed drawer, x
+toward the drawer, y left, z up, metres. x is measured from the drawer's front panel (negative: on
+the robot's side of it), y from the pelvis's sagittal plane, z from the standing pelvis height.
+The cabinet's proportions are ours, scaled to Talos (the top drawer of a tall chest, its handle a
+little above the pelvis, so that the forearm passes above the hip when the drawer is pulled 32 cm);
+the opening clearances are the thesis's (3.3.1).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+SLOTS = ("front_left", "front_right", "back_left", "back_right")
+
+
+@dataclass(frozen=True)
+class DrawerGeometry:
+    # Where the left gripper base sits when its fingers are round the handle bar; the bar lies in
+    # front of it by ``bar_from_grip`` (between the closed fingers and the thumb of Talos's gripper).
+    handle_grip: tuple[float, float, float] = (-0.13, 0.15, 0.10)
+    bar_from_grip: tuple[float, float, float] = (0.06, -0.035, -0.02)
+    clearance: dict = field(default_factory=lambda: {"front": 0.14, "back": 0.28})  # thesis 3.3.1
+    margin: float = 0.04  # extra opening beyond the clearance
+    # Objects (dowels) stand in the drawer: depth behind the front panel, y; the right gripper base
+    # reaches ``object_z`` (above the dowel's top).
+    object_depth: dict = field(default_factory=lambda: {"front": 0.06, "back": 0.26})
+    object_y: dict = field(default_factory=lambda: {"left": -0.02, "right": -0.16})
+    object_z: float = 0.06
+    dowel_height: float = 0.10  # [m] standing on the drawer's bottom
+    dowel_radius: float = 0.015
+    # The drawer: a box behind its front panel, on a slide joint along x.
+    drawer_depth: float = 0.40
+    drawer_y: tuple[float, float] = (-0.28, 0.24)
+    drawer_bottom_z: float = -0.10
+    drawer_wall_height: float = 0.10
+    front_panel_z: tuple[float, float] = (-0.12, 0.16)
+    travel: float = 0.35  # [m] slide range 0 .. travel (open toward the robot)
+    drawer_mass: float = 3.0  # [kg]
+    slide_damping: float = 10.0  # [N·s/m] viscous friction: 3 N more at 0.3 m/s
+    slide_friction: float = 15.0  # [N] dry friction of the runners: the force to start it moving
+    cabinet_depth: float = 0.50
+
+    def opening(self, slot: str) -> float:
+        """How far the drawer is pulled for ``slot`` [m]: the clearance plus the margin."""
+        return self.clearance[slot.split("_")[0]] + self.margin
+
+    def required_opening(self, slot: str) -> float:
+        """The thesis's clearance for ``slot``: the least opening that lets the hand in [m]."""
+        return self.clearance[slot.split("_")[0]]
+
+    def object_in_drawer(self, slot: str) -> np.ndarray:
+        """The right gripper base's target above the object, relative to the closed front panel."""
+        depth, side = slot.split("_")
+        return np.array([self.object_depth[depth], self.object_y[side], self.object_z])
+
+    def object_target(self, slot: str, comfort: float) -> np.ndarray:
+        """The same target with the drawer open by :meth:`opening`, in the pelvis frame."""
+        return self.object_in_drawer(slot) + [comfort - self.opening(slot), 0.0, 0.0]
+
+    def handle_target(self, comfort: float) -> np.ndarray:
+        """The left gripper base at the handle of the closed drawer, in the pelvis frame."""
+        return np.array(self.handle_grip) + [comfort, 0.0, 0.0]

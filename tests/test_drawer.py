@@ -1,0 +1,80 @@
+"""The walk-and-reach drawer task end to end in MuJoCo: synthesis → WPG → dynamic filter → IK →
+servos, a real drawer on a slide joint, the grasp switched on from measured quantities only."""
+
+import json
+
+import mujoco
+import numpy as np
+import pytest
+
+from robot_ctrl.cli import main
+from robot_ctrl.geometry.drawer import DrawerGeometry
+from robot_ctrl.hw.drawer_cabinet import DrawerPlacement
+from robot_ctrl.hw.mujoco_backend import MujocoBackend
+from robot_ctrl.hw.types import SCENE_FIELDS, JointCommand
+
+
+def test_drawer_task_end_to_end(tmp_path):
+    status = main(["drawer", "--distance", "1.5", "--slot", "back_left", "--quiet", "--out", str(tmp_path)])
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert report["fell"] is False and status == 0
+    # The synthesis drove the walk: two normal cycles, the short one, standing; the gait cycles the
+    # pelvis walked (measured) match the planned ones.
+    assert report["actions"][-2:] == [2, 3] and set(report["actions"][:-2]) == {1}
+    errors = report["step_length_errors_m"]
+    assert max(abs(e) for e in errors[:-2]) <= 0.010
+    assert abs(report["final_pelvis_to_drawer_m"] - report["comfort_distance_m"]) <= 0.03
+    # The left hand took hold of the handle and pulled the drawer open past the back slot's clearance.
+    assert report["grasp"] == "weld" and report["hand_to_handle_m"] <= 0.01
+    assert report["drawer_opening_m"] >= report["drawer_opening_required_m"] == 0.28
+    assert 10.0 < report["drawer_pull_force_peak_n"] < 200.0
+    assert report["hand_to_object_m"] <= 0.02
+    assert report["zmp_in_support_ratio"] >= 0.95
+    series = np.load(tmp_path / "timeseries.npz")
+    assert series["drawer_opening_m"][0] == 0.0 and series["drawer_opening_m"][-1] >= 0.28
+    assert main(["report", str(tmp_path)]) == 0
+    page = (tmp_path / "report.html").read_text()
+    assert page.count("data:image/png;base64,") == 6 and "Fig. 3.47" in page
+
+
+def test_drawer_takes_a_real_force_to_open(talos):
+    """Pulling the drawer with the grasp welded: the force the hand needs is the runners' friction
+    (plus damping), measured through the weld's constraint force."""
+    geometry = DrawerGeometry()
+    backend = MujocoBackend(talos, drawer=DrawerPlacement(1.2, "front_left"))
+    backend.configure()
+    backend.activate()
+    m, d, cabinet = backend.m, backend.d, backend.cabinet
+    assert m.jnt_range[m.joint("drawer_slide").id].tolist() == [0.0, geometry.travel]
+    state = backend.read()
+    # Bring the handle to the (closed) gripper and let the measured condition switch the grasp on.
+    d.mocap_pos[cabinet.mocap] += d.xpos[cabinet.hand] - d.site_xpos[cabinet.grip_site]
+    mujoco.mj_forward(m, d)
+    command = JointCommand(state.q, np.zeros(talos.nj), talos.kp, talos.kd, np.zeros(talos.nj))
+    backend.write(command)
+    scene = dict(zip(SCENE_FIELDS, backend.read().scene))
+    assert scene["grasped"] == 1.0 and scene["left_hand_to_handle_m"] < 1e-3
+    # Move the cabinet 10 cm away: the hand holds the drawer, so it slides out (the arm gives a
+    # little under the load); the force on it is the runners' dry friction and damping.
+    forces = []
+    for _ in range(40):
+        d.mocap_pos[cabinet.mocap][0] += 0.1 / 40
+        backend.write(command)
+        forces.append(dict(zip(SCENE_FIELDS, backend.read().scene))["drawer_pull_force_n"])
+    scene = dict(zip(SCENE_FIELDS, backend.read().scene))
+    assert 0.05 < scene["drawer_opening_m"] < 0.1
+    assert geometry.slide_friction * 0.9 < np.median(forces) < geometry.slide_friction * 3, forces
+    backend.close()
+
+
+@pytest.mark.parametrize("args,message", [
+    (["--distance", "0.5"], "--distance = 0.5 m is outside the allowed range"),
+    (["--distance", "9"], "--distance = 9.0 m is outside the allowed range"),
+    (["--slot", "middle"], "--slot = 'middle' is not one of front_left"),
+    (["--goal-jump", "2:1.5"], "--goal-jump distance = 1.5 m must be farther"),
+    (["--goal-jump", "x"], "--goal-jump 'x' must be TIME:DISTANCE"),
+])
+def test_drawer_rejects_bad_arguments(args, message, capsys, tmp_path):
+    assert main(["drawer", *args, "--out", str(tmp_path / "run")]) == 2
+    assert message in capsys.readouterr().err
+    assert not (tmp_path / "run").exists()
