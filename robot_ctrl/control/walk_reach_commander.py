@@ -17,7 +17,10 @@ through its command API:
   the horizon from the same rollout);
 - the hands' final approach, the grasp and the pull: :class:`~robot_ctrl.control.drawer_hands.DrawerHands`;
 - from the last short cycle on, the CoM leans by what the reaching arms move it ahead of the pelvis
-  (``shift_balance``), so that the pelvis, not the CoM, ends at the comfort distance.
+  (``shift_balance``), so that the pelvis, not the CoM, ends at the comfort distance;
+- the synthesis's clock is coupled to the measured body at the end of the approach: over the last
+  short cycle's second half the leader oscillator slows while the measured pelvis lags the
+  synthesized one, so that standing begins when the pelvis has come to rest.
 
 Frames: ``start`` is the base's world pose (x, y, yaw) at the start; distances are along its heading.
 """
@@ -45,6 +48,8 @@ MAX_ACTION_TIME = 4.0  # [s] longer than any learned action
 STANCE_SHARE = 0.5  # of the reach's final CoM shift taken by placing the stop stance ahead
 MAX_STANCE_SHIFT = 0.04  # [m]
 PELVIS_GAIN = 1.0  # [1/s] standing: integral gain of the measured pelvis's error into the lean
+SLOWING_LAG = 0.03  # [m] measured pelvis lag at which the synthesis runs at MIN_SYNTHESIS_RATE
+MIN_SYNTHESIS_RATE = 0.2
 GRASP_TIMEOUT = 2.0  # [s] after the sequence, a hand that never got hold of the handle gives up
 
 
@@ -125,7 +130,7 @@ class WalkReachCommander:
             return
         if not self.synth.finished:
             index = self.synth.action_index
-            output = self.synth.step(self.controller.dt, self._goal(t))
+            output = self.synth.step(self.controller.dt * self._synthesis_rate(), self._goal(t))
             if self.synth.finished:
                 self.boundaries.append((t, 0))
             else:
@@ -141,6 +146,16 @@ class WalkReachCommander:
         elif self._last_short:
             self.hands.reach(t, share, upper, self._posture_now, self._final_upper)
         self._lean(share)
+
+    def _synthesis_rate(self) -> float:
+        """How fast the synthesis's time runs against the robot's. Over the second half of the last
+        short cycle, the leader oscillator slows while the measured pelvis lags the synthesized one:
+        the synthesized pelvis comes to rest at once, the walking robot's settles over about half a
+        second, and the next action (standing, the pull) must not begin before it has."""
+        if self.output is None or not self._last_short or self.output.phase < np.pi:
+            return 1.0
+        lag = self.synth_start_advance + self.synth.progress - self.advance()
+        return float(np.clip(1.0 - lag / SLOWING_LAG, MIN_SYNTHESIS_RATE, 1.0))
 
     @property
     def _last_short(self) -> bool:

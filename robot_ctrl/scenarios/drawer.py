@@ -103,7 +103,7 @@ def run_drawer(robot: RobotModel, hw: SafetyLayer, primitives: WalkReachPrimitiv
         dynfilter_fallbacks=controller.filter_fallbacks, safety=hw.report(), disturbances=disturbances.to_dict(),
         rtf=round(result.rtf, 3), control_rate_hz=round(1.0 / dt, 3))
     report["peak_grf_n"] = report.pop("peak_grf_n")
-    report["success"] = report["success"] and result.stop_reason == "the task ended"
+    report["success"] = report["success"] and done.held(result.states[0].t) >= STAND_AFTER
     log(f"success: {str(report['success']).lower()}  fell: {str(report['fell']).lower()}  steps "
         f"{report['planned_step_lengths_m']} planned, {report['realized_step_lengths_m']} realized [m]  pelvis to "
         f"drawer {report['final_pelvis_to_drawer_m']} m (comfort {report['comfort_distance_m']})  drawer open "
