@@ -44,6 +44,7 @@ POSITION_GAIN = 2.5  # [1/s] feedback of the planned pelvis's lag behind the syn
 WALK_IN_STEPS = 2  # the synthesis starts at this touch-down, the gait at its steady speed
 WALK_IN_BLEND = 1.2  # [s] the upper body blends from its start posture to the synthesis's first one
 PREVIEW_DT = 0.02  # [s] step of the synthesizer's rollout for the WPG and the filter
+MIN_PREVIEW = 0.2  # [s] of the synthesizer's rollout averaged for the MPC's velocity, at least
 MAX_ACTION_TIME = 4.0  # [s] longer than any learned action
 STANCE_SHARE = 0.5  # of the reach's final CoM shift taken by placing the stop stance ahead
 MAX_STANCE_SHIFT = 0.04  # [m]
@@ -203,7 +204,10 @@ class WalkReachCommander:
             if self.stopping_at != target:
                 self._stop(target, sample.t)
             return
-        ahead = self._preview.t <= plan.duration / 2  # the next step
+        # The next step, within the action under way: the MPC must not slow this action for the
+        # next, when a replan made the next ones shorter.
+        remaining = (1.0 - self.output.phase / (2 * np.pi)) * plan.duration if self.output is not None else plan.duration
+        ahead = self._preview.t <= max(min(plan.duration / 2, remaining), MIN_PREVIEW)
         v = self._preview.pelvis_velocity[ahead].mean(axis=0)
         lag = self.synth_start_advance + self.synth.progress - self._planned_advance(sample)
         c.set_velocity(float(v[0] + POSITION_GAIN * lag), 0.0, 0.0)
