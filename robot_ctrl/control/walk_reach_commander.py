@@ -5,7 +5,8 @@ through its command API:
 
 - pelvis velocity → the pattern generator's velocity reference, at every WPG sample. The MPC plans
   with one velocity over its 1.6 s horizon, so it gets the mean of the synthesizer's own rollout
-  (:meth:`Synthesizer.preview`) over the next step, not the in-cycle signal (whose sway and speed
+  (:meth:`Synthesizer.preview`) over the next step within the action under way, not the in-cycle
+  signal (whose sway and speed
   dips the MPC's own gait makes), plus a feedback of the planned pelvis's lag behind the
   synthesized advance, so that each action ends where the synthesis planned it;
 - actions ↔ gait: the synthesis starts at a touch-down and one action is two steps; the gait's
