@@ -110,17 +110,16 @@ def _drawer(args: argparse.Namespace) -> int:
     from robot_ctrl.hw.drawer_cabinet import DrawerPlacement
     from robot_ctrl.robot.model import load_robot
     from robot_ctrl.scenarios.drawer import DrawerTask, run_drawer
-    from robot_ctrl.scenarios.walk_reach_synthesis import load_primitives
-    from robot_ctrl.synthesis.demonstrations import DemonstrationSet, default_dataset_path
+    from robot_ctrl.scenarios.walk_reach_synthesis import load_demonstrations, load_primitives
 
     jumps = tuple(_goal_jump(j) for j in args.goal_jump)
     task = DrawerTask(args.distance, args.slot, jumps, FilterMode(args.dynfilter))
     _disturbances(args)
     robot = load_robot(args.robot)
-    demos = DemonstrationSet.load(default_dataset_path(robot.name))
     try:  # before anything is learned or started
+        demos = load_demonstrations(robot)
         task.check(demos.comfort_distance, min(t.lengths[1] for t in demos.trials))
-    except ValueError as exc:
+    except (FileNotFoundError, ValueError) as exc:
         raise ConfigError(f"drawer: {_named(str(exc), _DRAWER_OPTIONS)}") from exc
     primitives = load_primitives(robot)
     args.drawer = DrawerPlacement(task.distance, task.slot, tuple((j.time, j.distance) for j in jumps))

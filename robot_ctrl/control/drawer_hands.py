@@ -92,7 +92,7 @@ class DrawerHands:
         posture[self._gripper] = self._closed - GRIPPER_OPEN * opened
         relative = self.body.hands_from_pelvis(upper_q, c.ik.q, targets.start[2])["left"]
         if not self.holding:
-            gripper = c.measured_configuration[c.robot.q_index[self._gripper]]
+            gripper = c.estimate.configuration[c.robot.q_index[self._gripper]]
             if self._closing_since is None or gripper < self._closed - GRIPPER_CLOSED or near > GRASP_DISTANCE:
                 s, _ = minimum_jerk(reach - REACH[0], REACH[1] - REACH[0])
                 self._free("left", self._blend("left", s, upper_q, handle))

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from robot_ctrl.geometry import rotation
-from robot_ctrl.geometry.drawer import DrawerGeometry
+from robot_ctrl.geometry.drawer import DrawerGeometry, cabinet_distance
 from robot_ctrl.synthesis.synthesizer import GoalJump
 
 
@@ -33,7 +33,7 @@ class DrawerTargets:
 
     def distance(self, t: float) -> float:
         """The front panel's distance from the start pelvis at time ``t`` [s]."""
-        return next((j.distance for j in sorted(self.jumps, key=lambda j: -j.time) if t >= j.time), self.distance0)
+        return cabinet_distance(self.distance0, [(j.time, j.distance) for j in self.jumps], t)
 
     def world(self, x: float, y: float, z: float) -> np.ndarray:
         """A point of the start frame (x along the heading, y left, z above the floor) in the world."""

@@ -28,6 +28,7 @@ class Estimate:
     support: SupportPolygon | None  # hull of the soles in contact
     hands: dict[str, np.ndarray]  # measured hand frame positions [m]
     base_xy_yaw: np.ndarray  # measured base (pelvis) pose on the floor: x, y [m], yaw [rad]
+    configuration: np.ndarray  # the measured Pinocchio configuration (base in the world frame)
 
     def dcm(self, omega: float) -> np.ndarray:
         """Divergent component of motion ξ = c + ċ/ω (horizontal) [m]."""
@@ -66,7 +67,7 @@ class StateEstimator:
                                               foot.length, foot.width)
         hands = {s: self.data.oMf[f].translation.copy() for s, f in self._hand_frames.items()}
         return Estimate(com.copy(), com_velocity, soles, {s: s in down for s in SIDES}, zmp, support, hands,
-                        base_pose_xy_yaw(state.base_pos, state.base_quat_xyzw))
+                        base_pose_xy_yaw(state.base_pos, state.base_quat_xyzw), q)
 
 
 def _sole_centre(pose: pin.SE3, offset) -> tuple[tuple[float, float], float]:

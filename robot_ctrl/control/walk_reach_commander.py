@@ -95,7 +95,7 @@ class WalkReachCommander:
 
     def synthesized_hand_at_measured(self, side: str) -> np.ndarray:
         """The synthesized arm angles alone, at the measured pelvis pose and legs: the hand's position."""
-        return self.body.hands(self.output.upper_body_q, self.controller.measured_configuration)[side]
+        return self.body.hands(self.output.upper_body_q, self.controller.estimate.configuration)[side]
 
     @property
     def finished(self) -> bool:

@@ -101,7 +101,6 @@ class WalkingController:
             robot, self.params.horizon, self.params.com_height, dynfilter, dynfilter_passes)
         self.estimator = StateEstimator(robot)
         self.estimate = None
-        self.measured_configuration = q0  # Pinocchio configuration of the last state stepped from
         self._statics = robot.pin.createData()
         self.k = 0
         self.reference: WalkReference | None = None
@@ -238,7 +237,6 @@ class WalkingController:
         self.k += 1
         self.reference = ref
         self.estimate = self.estimator.estimate(state)
-        self.measured_configuration = configuration(self.robot, state.base_pos, state.base_quat_xyzw, state.q)
         correction = self.stabilizer.correction(self.estimate, com, com_velocity, ref.zmp + self._balance_shift, self.dt)
         ik = self.ik
         ik.com.set_target(np.array([*(com + correction), self.com_z]), ik.com.target_velocity)

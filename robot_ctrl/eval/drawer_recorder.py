@@ -32,9 +32,9 @@ OBJECT_TOLERANCE = 0.02  # [m]
 
 
 class DrawerRecorder:
-    def __init__(self, commander, robot, start: np.ndarray):
+    def __init__(self, commander, robot):
         """``commander``: the :class:`~robot_ctrl.control.walk_reach_commander.WalkReachCommander`."""
-        self.commander, self.robot, self.start = commander, robot, np.asarray(start, float)
+        self.commander, self.robot = commander, robot
         names = list(robot.joint_names)
         self._ankles = [names.index(f"leg_{s}_5_joint") for s in SIDES]  # ankle pitch
         self._grippers = [names.index(f"gripper_{s}_joint") for s in SIDES]
@@ -67,7 +67,7 @@ class DrawerRecorder:
     def advance(self, a: dict, t: float) -> float:
         """Measured pelvis advance along the start heading at time ``t`` [m]."""
         k = min(int(np.searchsorted(a["t"], t - 1e-9)), len(a["t"]) - 1)
-        return float((a["base"][k, :2] - self.start[:2]) @ [np.cos(self.start[2]), np.sin(self.start[2])])
+        return self.commander.targets.advance(a["base"][k, :2])
 
     def report(self, fell: bool, geometry, slot: str, comfort: float) -> dict:
         a, c = self.arrays(), self.commander

@@ -18,6 +18,12 @@ import numpy as np
 SLOTS = ("front_left", "front_right", "back_left", "back_right")
 
 
+def cabinet_distance(distance: float, jumps, t: float) -> float:
+    """The cabinet's distance [m] at time ``t`` [s]: ``distance`` until the last of the ``jumps``
+    ((time [s], new distance [m]) pairs) at or before ``t``."""
+    return next((d for t0, d in sorted(jumps, reverse=True) if t >= t0 - 1e-9), distance)
+
+
 @dataclass(frozen=True)
 class DrawerGeometry:
     # Where the left gripper base sits when its fingers are round the handle bar; the bar lies in

@@ -28,7 +28,7 @@ import mujoco
 import numpy as np
 
 from robot_ctrl import __version__
-from robot_ctrl.geometry.drawer import SLOTS, DrawerGeometry
+from robot_ctrl.geometry.drawer import SLOTS, DrawerGeometry, cabinet_distance
 from robot_ctrl.hw.types import SCENE_FIELDS
 
 GRASP_DISTANCE = 0.01  # [m] gripper base to the handle's grip point for the weld to switch on
@@ -48,7 +48,7 @@ class DrawerPlacement:
     geometry: DrawerGeometry = field(default_factory=DrawerGeometry)
 
     def distance_at(self, t: float) -> float:
-        return next((d for t0, d in sorted(self.jumps, reverse=True) if t >= t0 - 1e-9), self.distance)
+        return cabinet_distance(self.distance, self.jumps, t)
 
 
 def _box(body, name: str, lo, hi, rgba) -> None:

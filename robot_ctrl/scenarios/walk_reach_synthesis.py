@@ -19,13 +19,18 @@ from robot_ctrl.synthesis.primitives import WalkReachPrimitives
 from robot_ctrl.synthesis.synthesizer import GoalJump, Synthesizer, WalkReachGoal
 
 
-def load_primitives(robot: RobotModel, dataset: Path | None = None) -> WalkReachPrimitives:
-    """Learn the primitives from the robot's demonstration set (a few seconds)."""
+def load_demonstrations(robot: RobotModel, dataset: Path | None = None) -> DemonstrationSet:
+    """The robot's demonstration set (default: the one shipped in ``models/``)."""
     path = dataset or default_dataset_path(robot.name)
     if not path.exists():
         raise FileNotFoundError(f"no demonstrations at {path}; generate them with: robot-ctrl synth-demos "
                                 f"--robot {robot.name} --out {path}")
-    return WalkReachPrimitives.learn(DemonstrationSet.load(path), robot)
+    return DemonstrationSet.load(path)
+
+
+def load_primitives(robot: RobotModel, dataset: Path | None = None) -> WalkReachPrimitives:
+    """Learn the primitives from the robot's demonstration set (a few seconds)."""
+    return WalkReachPrimitives.learn(load_demonstrations(robot, dataset), robot)
 
 
 @dataclass
