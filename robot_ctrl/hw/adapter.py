@@ -57,11 +57,12 @@ class HardwareAdapter(ABC):
         self._state = S.INACTIVE
 
     def estop(self) -> None:
-        """Latch the emergency stop: the backend puts its servos in a safe (damping) mode."""
-        if self._closed or self._state is S.ESTOP:
+        """Latch the emergency stop, then put the servos in a safe (damping) mode. Latched before the
+        bus is touched, so a failing send still leaves no way to write; each call sends again."""
+        if self._closed:
             return
-        self._on_estop()
         self._state = S.ESTOP
+        self._on_estop()
 
     def reset(self) -> None:
         """Clear a latched e-stop or a fault: the backend goes back to INACTIVE (servos still safe)."""

@@ -14,7 +14,8 @@ controller sends reaches the simulated servos as it would reach real ones, and t
 interventions go to the run's report. ``video`` records an MP4 of the simulated robot
 (``MujocoWorld``). The emulated setups read the bus mapping from ``configs/hw/<robot>_mit_can.yaml`` or
 ``<robot>_dynamixel.yaml`` (or ``bus_config``), and use the simulation's clock for the safety layer's
-watchdog and staleness checks (lock-step: the simulated robot waits for the controller).
+watchdog and staleness checks (lock-step: the simulated robot waits for the controller); the
+watchdog thread runs as it would on a real bus.
 """
 
 from __future__ import annotations
@@ -72,9 +73,12 @@ def open_hardware(kind: HardwareKind | str, robot: RobotModel, bus_config: str |
         emulator.start()
         config = dataclasses.replace(config, buses={"port": dict(config.buses["port"], device=emulator.port_name)})
         backend = DynamixelBackend(config, robot.kd, body_sensors=emulator.body_state)
+    hw = SafetyLayer(backend, limits, clock=emulator.clock)
+    hw.start_watchdog()  # a bus has no lock-step: a stalled controller must be caught from outside
     try:
-        yield SafetyLayer(backend, limits, clock=emulator.clock)
+        yield hw
     finally:
+        hw.close()
         emulator.close()
 
 

@@ -3,18 +3,28 @@
 What it does with each ``write`` (in this order), each counted in ``interventions`` and logged
 (first occurrence per kind, then a summary on close):
 
-- ``rejected_command``: a command with NaN/inf or the wrong shape is refused; the last safe
-  command is sent again instead (damping if there is none). ``write`` does not raise, so a loop that
-  produced one bad sample keeps a held robot; the counter tells.
+- ``rejected_command``: a command that is not finite real numbers of the right shape is refused;
+  the last safe command is sent again instead (damping if there is none). ``write`` does not raise,
+  so a loop that produced one bad sample keeps a held robot; the counter tells.
+- ``gain_clamped``: kp and kd above ``kp_max`` / ``kd_max`` (the robot config's ``max_gain_ratio``
+  times the servo gains) are clamped.
 - ``position_clamped``: position targets clamped into [lower, upper] (the config's limits).
 - ``position_step_limited``: the target moves at most ``max_step`` rad per tick from the last one sent.
 - ``velocity_clamped``: velocity targets clamped to ± the velocity limit.
-- ``torque_clamped``: feedforward clamped to ± effort, then the target moved so the servo torque
-  ``kp (q − q_meas) + kd (dq − dq_meas) + τ_ff`` at the last measured state stays within ± effort.
 - soft start: kp ramps linearly from 0 to the commanded value over ``soft_start`` s of ticks after
   activation and after any damping episode (kd is never ramped).
-- ``watchdog``: no ``write`` for ``watchdog_periods`` control periods (wall clock, checked on every
-  read and by the optional watchdog thread) → damping mode (kp = 0, τ_ff = 0, kd = ``kd_damping``).
+- ``torque_clamped``, last, on every command the layer sends (damping included): the servo torque
+  ``kp (q − q_meas) + kd (dq − dq_meas) + τ_ff`` at the last measured state is bounded to ± effort
+  (``servo_torque.bound_servo_torque``: τ_ff clipped, the target moved within the position limits,
+  and where that is not enough both gains scaled down).
+
+What it watches:
+
+- ``bad_measurement``: a state whose time, q, dq or temperature is not finite real numbers of the
+  right shape → damping from the last good state, latched as FAULT until ``reset()`` (never a
+  stiff hold of the last command).
+- ``watchdog``: no ``write`` for ``watchdog_periods`` control periods (checked on every read and by
+  the watchdog thread), armed at ``activate`` → damping mode (kp = 0, τ_ff = 0, kd = ``kd_damping``).
   The next valid write resumes with a soft start.
 - ``stale_state``: the backend's state has not advanced for ``stale_periods`` control periods →
   damping mode; writes are answered with damping until a fresh state arrives.
@@ -22,8 +32,14 @@ What it does with each ``write`` (in this order), each counted in ``intervention
   above ``temperature_derate`` kp and the torque limit of that joint scale down linearly, to 20 % at
   ``temperature_fault``; at ``temperature_fault`` the layer latches a FAULT in damping mode until
   ``reset()``.
-- ``estop``: latches the backend's e-stop (damping); idempotent and thread-safe; every later
-  ``write`` raises ``LifecycleError`` until ``reset()`` and a new ``activate()``.
+- ``estop``: latches first, then puts the backend's servos in damping (again on every call,
+  counted once); thread-safe; every later ``write`` raises ``LifecycleError`` until ``reset()`` and ``activate()``.
+
+Threads: the layer's lock guards its own bookkeeping and is never held across a call into the
+backend, so ``estop()`` and the watchdog act while a write is in flight. A write that was in flight
+when the layer went to damping or e-stop is followed by the safe command again, so it cannot leave
+a stiff command on the servos. A backend must therefore accept ``estop()`` and ``write()`` from
+another thread while a write is in flight.
 """
 
 from __future__ import annotations
@@ -38,6 +54,7 @@ from typing import Callable
 import numpy as np
 
 from robot_ctrl.hw.adapter import HardwareAdapter
+from robot_ctrl.hw.servo_torque import bound_servo_torque
 from robot_ctrl.hw.types import CommandError, JointCommand, JointState, LifecycleState
 from robot_ctrl.robot.model import RobotModel
 
@@ -52,6 +69,8 @@ class SafetyLimits:
     velocity: np.ndarray  # (nj,) [rad/s]
     effort: np.ndarray  # (nj,) [N·m]
     kd_damping: np.ndarray  # (nj,) damping-mode gains [N·m·s/rad]
+    kp_max: np.ndarray  # (nj,) the largest stiffness a command may carry [N·m/rad]
+    kd_max: np.ndarray  # (nj,) the largest damping a command may carry [N·m·s/rad]
     control_dt: float = 0.005  # [s]
     max_step: float = 0.05  # [rad] per tick
     soft_start: float = 0.5  # [s]
@@ -63,10 +82,10 @@ class SafetyLimits:
 
     def __post_init__(self):
         n = len(self.lower)
-        for name in ("upper", "velocity", "effort", "kd_damping"):
+        for name in ("upper", "velocity", "effort", "kd_damping", "kp_max", "kd_max"):
             value = np.asarray(getattr(self, name))
-            if value.shape != (n,) or not np.all(np.isfinite(value)):
-                raise ValueError(f"SafetyLimits.{name} must be {n} finite values")
+            if value.shape != (n,) or not np.all(np.isfinite(value)) or np.any(value < 0):
+                raise ValueError(f"SafetyLimits.{name} must be {n} finite values >= 0")
         if np.any(np.asarray(self.lower) >= np.asarray(self.upper)):
             raise ValueError("SafetyLimits.lower must be below upper for every joint")
         checks = {"control_dt": (1e-4, 0.1), "max_step": (1e-4, 1.0), "soft_start": (0.0, 10.0),
@@ -88,9 +107,12 @@ class SafetyLimits:
     @classmethod
     def from_robot(cls, robot: RobotModel, control_dt: float = 0.005, **overrides) -> "SafetyLimits":
         """Limits from the robot model: URDF position limits (already inside the config's margins
-        for the IK), velocity and effort limits, and the default servo damping for damping mode."""
+        for the IK), velocity and effort limits, the default servo damping for damping mode, and
+        gains capped at the config's ``max_gain_ratio`` times the servo gains."""
+        ratio = robot.config.max_gain_ratio
         return cls(lower=robot.lower.copy(), upper=robot.upper.copy(), velocity=robot.velocity_limit.copy(),
-                   effort=robot.effort.copy(), kd_damping=robot.kd.copy(), control_dt=control_dt, **overrides)
+                   effort=robot.effort.copy(), kd_damping=robot.kd.copy(), kp_max=ratio * robot.kp,
+                   kd_max=ratio * robot.kd, control_dt=control_dt, **overrides)
 
 
 class SafetyLayer(HardwareAdapter):
@@ -105,14 +127,16 @@ class SafetyLayer(HardwareAdapter):
         self.backend = backend
         self.limits = limits
         self.clock = clock if clock is not None else self._state_time
-        self._latest_t = 0.0  # time of the last state read [s]
+        self._latest_t = 0.0  # time of the last good state read [s]
         self.interventions: Counter[str] = Counter()
         self.mode = "off"  # "normal", "damping", "off"
-        self._lock = threading.RLock()
+        self._lock = threading.RLock()  # the layer's bookkeeping; never held across a backend call
+        self._epoch = 0  # counts entries into damping and e-stop (a write in flight then re-sends)
+        self._pending: JointCommand | None = None  # a damping command decided under the lock, to send
         self._last_sent: JointCommand | None = None
-        self._last_state: JointState | None = None
-        self._last_write = None  # wall time of the last write (None: watchdog not armed)
-        self._fresh_at = None  # wall time of the last state that advanced
+        self._last_good: JointState | None = None  # the last measured state that passed the checks
+        self._last_write = None  # clock time of the last write, or of activation (None: disarmed)
+        self._fresh_at = None  # clock time of the last state that advanced
         self._ticks = 0  # writes since the soft start began
         self._derate = np.ones(backend.nj)
         self._warned = np.zeros(backend.nj, dtype=bool)
@@ -125,30 +149,34 @@ class SafetyLayer(HardwareAdapter):
 
     def _on_activate(self) -> None:
         self.backend.activate()
-        self._begin_soft_start()
-        self._last_write = None
-        self.mode = "normal"
+        with self._lock:
+            self._begin_soft_start()
+            self._last_write = self.clock()  # armed: a controller that never writes is caught too
+            self.mode = "normal"
 
     def _on_deactivate(self) -> None:
         self.backend.deactivate()
         self.mode = "off"
 
     def estop(self) -> None:
+        """Latch the e-stop, then send the backend's damping; never waits for a write in flight."""
         with self._lock:
-            if self._closed or self._state is S.ESTOP:
+            if self._closed:
                 return
-            self.interventions["estop"] += 1
-            logger.warning("e-stop: servos in damping mode, latched until reset()")
-            super().estop()
+            if self._state is not S.ESTOP:
+                self._state = S.ESTOP
+                self.mode = "off"
+                self._epoch += 1
+                self._intervene("estop", "servos in damping mode, latched until reset()")
+        self._on_estop()
 
     def _on_estop(self) -> None:
         self.backend.estop()
-        self.mode = "off"
 
     def _on_reset(self) -> None:
         if self.backend.state in (S.ESTOP, S.FAULT):
             self.backend.reset()
-        elif self.backend.state is S.ACTIVE:  # a fault of this layer (temperature) left it in damping
+        elif self.backend.state is S.ACTIVE:  # a fault of this layer left the servos in damping
             self.backend.deactivate()
         self._warned[:] = False
         self._derate[:] = 1.0
@@ -174,7 +202,12 @@ class SafetyLayer(HardwareAdapter):
 
     def _watch(self) -> None:
         while not self._stop_watchdog.wait(self.limits.control_dt):
-            self.check_watchdog()
+            try:
+                self.check_watchdog()
+            except Exception:  # a backend that fails to take the damping command: nothing left to send
+                logger.exception("safety watchdog: the backend refused the damping command")
+                self._state = S.FAULT
+                return
 
     # Read / write -------------------------------------------------------------------------------
     def _state_time(self) -> float:
@@ -182,45 +215,35 @@ class SafetyLayer(HardwareAdapter):
 
     def _read(self) -> JointState:
         state = self.backend.read()
-        self._latest_t = state.t
-        now = self.clock()
+        problem = state.problem(self.nj)
         with self._lock:
-            previous = self._last_state
-            if previous is None or state.t > previous.t:
-                self._fresh_at = now
-            elif self._fresh_at is not None and now - self._fresh_at > self.limits.stale_periods * self.limits.control_dt:
-                if self.mode == "normal":
-                    self._intervene("stale_state", f"no new state for {now - self._fresh_at:.3f} s")
-                    self._enter_damping(state)
-            self._last_state = state
-            if state.temperature is not None:
-                self._check_temperature(np.asarray(state.temperature, dtype=float), state)
-        self.check_watchdog()
+            if problem is not None:
+                self._intervene("bad_measurement", problem)
+                if self.backend.state is S.ACTIVE:
+                    self._enter_damping(self._last_good)
+                self._state = S.FAULT
+            else:
+                self._check_fresh(state)
+        self._send_pending()
+        if problem is None:
+            self.check_watchdog()
         return state
 
     def write(self, command: JointCommand) -> None:
         with self._lock:
             self._require("write", S.ACTIVE)
             self._last_write = self.clock()
-            try:
-                command.validate(self.nj)
-            except CommandError as exc:
-                self._intervene("rejected_command", str(exc))
-                self._send(self._last_sent if self._last_sent is not None else self._damping_command())
-                return
-            super().write(command)
+            epoch = self._epoch
+            safe = self._safe_command(command)
+            self._last_sent = safe
+        self._guarded(lambda: self._write(safe))
+        with self._lock:
+            overtaken = self._epoch != epoch
+        if overtaken:  # damping or e-stop began while this command was on its way
+            self._reassert_safe()
 
     def _write(self, command: JointCommand) -> None:
-        stale = (self._fresh_at is not None
-                 and self._last_write - self._fresh_at > self.limits.stale_periods * self.limits.control_dt)
-        if stale or self._last_state is None:
-            self._send(self._damping_command())
-            return
-        if self.mode == "damping":
-            logger.info("resuming from damping mode with a soft start")
-            self._begin_soft_start()
-            self.mode = "normal"
-        self._send(self._filter(command))
+        self.backend.write(command)
 
     def check_watchdog(self) -> None:
         """Enter damping mode if no write came for ``watchdog_periods`` control periods."""
@@ -228,14 +251,16 @@ class SafetyLayer(HardwareAdapter):
             if self._state is not S.ACTIVE or self.mode != "normal" or self._last_write is None:
                 return
             silent = self.clock() - self._last_write
-            if silent > self.limits.watchdog_periods * self.limits.control_dt:
-                self._intervene("watchdog", f"no write for {silent * 1e3:.1f} ms")
-                self._enter_damping(self._last_state)
+            if silent <= self.limits.watchdog_periods * self.limits.control_dt:
+                return
+            self._intervene("watchdog", f"no write for {silent * 1e3:.1f} ms")
+            self._enter_damping(self._last_good)
+        self._send_pending()
 
     def report(self) -> dict:
         return {"interventions": dict(self.interventions), "mode": self.mode, "state": self.state.value}
 
-    # Internals ----------------------------------------------------------------------------------
+    # Internals (called with the lock held, except the senders) -------------------------------------
     def _intervene(self, kind: str, detail: str) -> None:
         if self.interventions[kind] == 0:
             logger.warning("safety: %s (%s)", kind, detail)
@@ -245,12 +270,38 @@ class SafetyLayer(HardwareAdapter):
         self._ticks = 0
         self._last_sent = None
 
-    def _send(self, cmd: JointCommand) -> None:
-        self.backend.write(cmd)
-        self._last_sent = cmd
+    def _check_fresh(self, state: JointState) -> None:
+        self._latest_t = state.t
+        now = self.clock()
+        previous = self._last_good
+        if previous is None or state.t > previous.t:
+            self._fresh_at = now
+        elif self._fresh_at is not None and now - self._fresh_at > self.limits.stale_periods * self.limits.control_dt:
+            if self.mode == "normal":
+                self._intervene("stale_state", f"no new state for {now - self._fresh_at:.3f} s")
+                self._enter_damping(state)
+        self._last_good = state
+        if state.temperature is not None:
+            self._check_temperature(np.asarray(state.temperature, dtype=float), state)
+
+    def _safe_command(self, command: JointCommand) -> JointCommand:
+        try:
+            command.validate(self.nj)
+        except CommandError as exc:
+            self._intervene("rejected_command", str(exc))
+            return self._bounded(self._last_sent if self._last_sent is not None else self._damping_command())
+        stale = (self._fresh_at is not None
+                 and self._last_write - self._fresh_at > self.limits.stale_periods * self.limits.control_dt)
+        if stale or self._last_good is None:
+            return self._bounded(self._damping_command())
+        if self.mode == "damping":
+            logger.info("resuming from damping mode with a soft start")
+            self._begin_soft_start()
+            self.mode = "normal"
+        return self._filter(command)
 
     def _damping_command(self, state: JointState | None = None) -> JointCommand:
-        state = state or self._last_state
+        state = state or self._last_good
         q = state.q.copy() if state is not None else (self.limits.lower + self.limits.upper) / 2
         zero = np.zeros(self.nj)
         return JointCommand(q=np.clip(q, self.limits.lower, self.limits.upper), dq=zero, kp=zero.copy(),
@@ -258,8 +309,27 @@ class SafetyLayer(HardwareAdapter):
 
     def _enter_damping(self, state: JointState | None) -> None:
         self.mode = "damping"
-        if self.backend.state is S.ACTIVE:
-            self._send(self._damping_command(state))
+        self._epoch += 1
+        self._pending = self._last_sent = self._bounded(self._damping_command(state))
+
+    def _send_pending(self) -> None:
+        with self._lock:
+            command, self._pending = self._pending, None
+        if command is not None and self.backend.state is S.ACTIVE:
+            self.backend.write(command)
+
+    def _reassert_safe(self) -> None:
+        with self._lock:
+            if self._state is S.ESTOP:
+                command = None
+            elif self.mode == "damping":
+                command = self._bounded(self._damping_command())
+            else:
+                return
+        if command is None:
+            self.backend.estop()  # sends the backend's damping again
+        elif self.backend.state is S.ACTIVE:
+            self.backend.write(command)
 
     def _check_temperature(self, temperature: np.ndarray, state: JointState) -> None:
         lim = self.limits
@@ -278,7 +348,10 @@ class SafetyLayer(HardwareAdapter):
             self._state = S.FAULT
 
     def _filter(self, cmd: JointCommand) -> JointCommand:
-        lim, state = self.limits, self._last_state
+        lim, state = self.limits, self._last_good
+        kp, kd = np.minimum(cmd.kp, lim.kp_max), np.minimum(cmd.kd, lim.kd_max)
+        if np.any(kp != cmd.kp) or np.any(kd != cmd.kd):
+            self._intervene("gain_clamped", f"joints {np.flatnonzero((kp != cmd.kp) | (kd != cmd.kd)).tolist()}")
         q = np.clip(cmd.q, lim.lower, lim.upper)
         if np.any(q != cmd.q):
             self._intervene("position_clamped", f"joints {np.flatnonzero(q != cmd.q).tolist()}")
@@ -292,16 +365,15 @@ class SafetyLayer(HardwareAdapter):
             self._intervene("velocity_clamped", f"joints {np.flatnonzero(dq != cmd.dq).tolist()}")
         ramp = min(1.0, (self._ticks + 1) * lim.control_dt / lim.soft_start) if lim.soft_start > 0 else 1.0
         self._ticks += 1
-        kp = cmd.kp * ramp * self._derate
-        effort = lim.effort * self._derate
-        tau_ff = np.clip(cmd.tau_ff, -effort, effort)
-        # Servo torque at the last measured state within ± effort: bound q around q_meas.
-        rest = tau_ff + cmd.kd * (dq - state.dq)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            lo = np.where(kp > 0, state.q + (-effort - rest) / kp, -np.inf)
-            hi = np.where(kp > 0, state.q + (effort - rest) / kp, np.inf)
-        bounded = np.clip(q, np.minimum(lo, hi), np.maximum(lo, hi))
-        if np.any(tau_ff != cmd.tau_ff) or np.any(bounded != q):
-            self._intervene("torque_clamped", f"joints {np.flatnonzero((bounded != q) | (tau_ff != cmd.tau_ff)).tolist()}")
-        q = np.clip(bounded, lim.lower, lim.upper)
-        return JointCommand(q=q, dq=dq, kp=kp, kd=cmd.kd.copy(), tau_ff=tau_ff)
+        return self._bounded(JointCommand(q=q, dq=dq, kp=kp * ramp * self._derate, kd=kd, tau_ff=cmd.tau_ff))
+
+    def _bounded(self, cmd: JointCommand) -> JointCommand:
+        """``cmd`` with its torque at the last good measured state within ± the (derated) effort."""
+        state, lim = self._last_good, self.limits
+        if state is None:  # nothing measured yet: only damping is ever sent then
+            return cmd
+        q, kp, kd, tau_ff, changed = bound_servo_torque(cmd.q, cmd.dq, cmd.kp, cmd.kd, cmd.tau_ff, state.q, state.dq,
+                                                        lim.effort * self._derate, lim.lower, lim.upper)
+        if changed.any():
+            self._intervene("torque_clamped", f"joints {np.flatnonzero(changed).tolist()}")
+        return JointCommand(q=q, dq=cmd.dq, kp=kp, kd=kd, tau_ff=tau_ff)

@@ -66,6 +66,22 @@ class JointState:
     temperature: np.ndarray | None = None
     scene: np.ndarray | None = None
 
+    def problem(self, nj: int) -> str | None:
+        """Why this sample cannot be trusted (time, joint positions, velocities or temperatures
+        that are not ``nj`` finite real numbers), or None."""
+        fields = {"t": (self.t, ()), "q": (self.q, (nj,)), "dq": (self.dq, (nj,))}
+        if self.temperature is not None:
+            fields["temperature"] = (self.temperature, (nj,))
+        for name, (value, shape) in fields.items():
+            array = np.asarray(value)
+            if array.dtype.kind not in "fiu":
+                return f"JointState.{name} is not real numbers (dtype {array.dtype})"
+            if array.shape != shape:
+                return f"JointState.{name} has shape {array.shape}, expected {shape}"
+            if not np.isfinite(array).all():
+                return f"JointState.{name} is not finite at {np.flatnonzero(~np.isfinite(array.reshape(-1))).tolist()}"
+        return None
+
     def body_fields(self) -> dict:
         """The fields measured by body sensors (base pose, IMU, foot F/T, floor contacts), for a
         backend that reads the joints itself and takes the rest from another source."""
@@ -88,12 +104,14 @@ class JointCommand:
     tau_ff: np.ndarray
 
     def validate(self, nj: int) -> None:
-        """Raise CommandError unless every field has ``nj`` finite entries and gains are ≥ 0."""
+        """Raise CommandError unless every field has ``nj`` finite real entries and gains are ≥ 0."""
         names = ("q", "dq", "kp", "kd", "tau_ff")
         for name in names:
-            shape = np.shape(getattr(self, name))
-            if shape != (nj,):
-                raise CommandError(f"JointCommand.{name} has shape {shape}, expected ({nj},)")
+            array = np.asarray(getattr(self, name))
+            if array.shape != (nj,):
+                raise CommandError(f"JointCommand.{name} has shape {array.shape}, expected ({nj},)")
+            if array.dtype.kind not in "fiu":
+                raise CommandError(f"JointCommand.{name} is not real numbers (dtype {array.dtype})")
         values = np.array([getattr(self, name) for name in names], dtype=float)  # one check for all fields
         if not np.isfinite(values).all():
             name, bad = next((n, np.flatnonzero(~np.isfinite(v))) for n, v in zip(names, values) if not np.isfinite(v).all())

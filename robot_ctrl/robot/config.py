@@ -59,6 +59,7 @@ class RobotConfig:
     servo: ServoGains
     position_margin: float  # [rad]
     velocity_fraction: float
+    max_gain_ratio: float  # the largest kp and kd a command may carry, over the default gains
     timestep: float  # [s] physics step of the simulation backend
 
     @property
@@ -157,5 +158,6 @@ def parse_robot_config(raw: Mapping[str, Any], source: str = "robot config") -> 
         ),
         position_margin=_number(limits, "position_margin", f"{source}: limits", 0.0, 0.5),
         velocity_fraction=_number(limits, "velocity_fraction", f"{source}: limits", 0.01, 1.0),
+        max_gain_ratio=_number(limits, "max_gain_ratio", f"{source}: limits", 1.0, 10.0),
         timestep=_number(sim, "timestep", f"{source}: simulation", 1e-4, 0.01),
     )
