@@ -1,6 +1,11 @@
 """Dynamic filter: multibody ZMP against hand-computed cases, and the filter's Newton passes on a
 plan recorded from a MuJoCo walk."""
 
+import os
+import signal
+import threading
+import time
+
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -76,7 +81,8 @@ def standing_controller(talos) -> WalkingController:
 
 def test_worker_applies_the_in_process_filter_chain_one_sample_later(talos):
     """Fed the same plans, the worker's offset in sample k + 1 is the in-process filter's offset
-    plan after sample k, carried one sample ahead."""
+    plan after sample k, carried one sample ahead; a worker that falls behind (stopped for 0.3 s)
+    is waited for and changes nothing."""
     controller = standing_controller(talos)
     wpg, p = controller.wpg, controller.params
     inline = DynamicFilter(talos, p.horizon, p.com_height, "full", passes=1)
@@ -88,7 +94,15 @@ def test_worker_applies_the_in_process_filter_chain_one_sample_later(talos):
             wpg.update()
             args = (wpg, controller.ik.q, controller.com_z, controller.sole_height, controller.upper_body,
                     wpg.sample_start)
+            began = time.perf_counter()
             worker.update(*args)
+            if k == 4:  # the worker falls behind: stopped for 0.5 s with this request in hand
+                os.kill(worker._process.pid, signal.SIGSTOP)
+                resume = threading.Timer(0.5, os.kill, (worker._process.pid, signal.SIGCONT))
+                resume.start()
+            if k == 5:
+                resume.join()
+                assert time.perf_counter() - began > 0.1  # the next update waited for the late result
             if expected is None:
                 np.testing.assert_array_equal(worker.offset(0.05)[0], np.zeros(2))  # nothing back yet
             else:

@@ -71,12 +71,24 @@ def test_mjcf_has_servos_exclusions_and_integrator(talos, mj):
 
 
 def test_mjcf_is_cached_and_converted_again_in_a_new_cache(talos, tmp_path, monkeypatch):
-    assert talos.mjcf_path.is_file()
+    from robot_ctrl.robot import mjcf
+
     monkeypatch.setenv("ROBOT_CTRL_CACHE", str(tmp_path))
     fresh = load_robot("talos")
-    assert fresh.mjcf_path.parent == tmp_path
-    assert fresh.mjcf_path.name == talos.mjcf_path.name  # same inputs, same key
-    assert not list(tmp_path.glob("*.tmp"))
+    path = fresh.mjcf_path
+    assert path.parent == tmp_path and not list(tmp_path.glob("*.tmp"))
+    assert path.read_bytes() == talos.mjcf_path.read_bytes()  # same inputs: the same scene, converted again
+    # Reused: a second load converts nothing and leaves the file as it was.
+    stamp = path.stat().st_mtime_ns
+    with monkeypatch.context() as m:
+        m.setattr(mjcf, "scene_spec", lambda *a, **k: pytest.fail("the cached scene was converted again"))
+        assert load_robot("talos").mjcf_path == path and path.stat().st_mtime_ns == stamp
+    # Another input (stiffer servos) is another scene, which carries it.
+    stiff = mjcf.cached_scene_mjcf(talos.config, talos.files, 2 * talos.kp, talos.kd, talos.effort, talos.armature)
+    assert stiff != path
+    gains = [mujoco.MjModel.from_xml_path(str(p)).actuator_gainprm[:, 0] for p in (path, stiff)]
+    np.testing.assert_allclose(gains[1], 2 * gains[0])
+    np.testing.assert_allclose(gains[0], talos.kp)
 
 
 def test_unknown_robot_lists_available():
@@ -118,11 +130,49 @@ def test_half_sitting_outside_urdf_limits_is_rejected():
         load_robot(parse_robot_config(raw))
 
 
-def test_servo_damping_follows_the_damping_ratio(talos):
-    data = talos.pin.createData()
-    mass_diag = np.diag(pin.crba(talos.pin, data, talos.q_half_sitting))[talos.v_index]
-    zeta = talos.kd / (2.0 * np.sqrt(talos.kp * mass_diag))
-    np.testing.assert_allclose(zeta, 1.0)
+def test_servo_damping_ratio_shows_in_the_simulated_step_response(talos):
+    """The scene's servos have the configured closed-loop damping ratio: with the base fixed, no
+    gravity and no contacts, the other joints held by their servos at half-sitting, a 0.02 rad step
+    of the hip yaw's target (a joint without URDF friction, whose motion barely couples into the
+    others) is fitted by the second-order step response of damping ratio ζ and natural frequency ω;
+    ζ is the config's damping ratio and ω² the joint's stiffness over its inertia (rotor included),
+    each within 10 %. A 0.2 ms step measures the servo rather than the integrator."""
+    spec = mujoco.MjSpec.from_file(str(talos.mjcf_path))
+    spec.delete(spec.joint("talos/root"))
+    spec.option.gravity = [0.0, 0.0, 0.0]
+    spec.option.timestep = 2e-4
+    spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
+    m = spec.compile()
+    d = mujoco.MjData(m)
+    name, step = "leg_left_1_joint", 0.02
+    for n, angle in zip(talos.joint_names, talos.config.half_sitting):
+        d.qpos[m.joint(f"talos/{n}").qposadr[0]] = angle
+        d.ctrl[m.actuator(f"talos/{n}").id] = angle + (step if n == name else 0.0)
+    i, adr = talos.joint_names.index(name), m.joint(f"talos/{name}").qposadr[0]
+    t = np.arange(1, 1501) * m.opt.timestep  # 0.3 s
+    response = []
+    for _ in t:
+        mujoco.mj_step(m, d)
+        response.append((d.qpos[adr] - talos.config.half_sitting[i]) / step)
+    zeta, omega = _fit_second_order(t, np.array(response))
+    inertia = np.diag(pin.crba(talos.pin, talos.pin.createData(), talos.q_half_sitting))[talos.v_index][i]
+    assert zeta == pytest.approx(talos.config.servo.damping_ratio, rel=0.1)
+    assert omega == pytest.approx(np.sqrt(talos.kp[i] / inertia), rel=0.1)
+
+
+def _fit_second_order(t, x):
+    """Least-squares (ζ, ω) of the unit step response x(t) of ẍ + 2ζω ẋ + ω² x = ω²."""
+    from scipy.optimize import least_squares
+    from scipy.signal import lti, step
+
+    def residual(params):
+        zeta, omega = params
+        return step(lti([omega**2], [1.0, 2 * zeta * omega, omega**2]), T=t)[1] - x
+
+    return least_squares(residual, [0.5, 50.0], bounds=([0.05, 1.0], [5.0, 1000.0])).x
+
+
+def test_srdf_rotor_inertia_is_the_armature(talos):
     # 1e-5 kg·m² rotor × gear 100², from the SRDF; the grippers have no rotor parameters there.
     grippers = [i for i, n in enumerate(talos.joint_names) if n.startswith("gripper")]
     np.testing.assert_allclose(np.delete(talos.armature, grippers), 0.1)

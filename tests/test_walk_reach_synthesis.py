@@ -166,11 +166,10 @@ def test_transitions_have_no_jump_in_joint_angles(primitives):
     run = run_synthesis(primitives, WalkReachGoal(primitives.comfort_distance + 0.55, "back_left"))
     assert run.action[-1] == 0 and run.action[-2] == 3  # 0: ended, references held
     boundaries = np.flatnonzero(np.diff(run.action[:-1]))
-    steps = np.abs(np.diff(run.upper_body_q, axis=0))
-    typical = np.percentile(steps.max(axis=1), 99)
+    steps = np.abs(np.diff(run.upper_body_q, axis=0))  # per 5 ms tick
     assert len(boundaries) == 2
-    for k in boundaries:
-        assert steps[k - 2 : k + 3].max() <= typical
+    for k in boundaries:  # at most 1 rad/s around a transition, where the blended actions meet
+        assert steps[k - 2 : k + 3].max() <= 0.005
 
 
 def test_goal_jump_adds_a_step_and_still_ends_at_comfort(primitives):
