@@ -5,7 +5,9 @@ from __future__ import annotations
 import argparse
 import os
 import re
+import signal
 import sys
+import threading
 from pathlib import Path
 
 from robot_ctrl.modes import ArmMotion, FilterMode, HardwareKind
@@ -713,13 +715,32 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _interrupt(signum, frame) -> None:
+    raise KeyboardInterrupt(signal.Signals(signum).name)
+
+
 def main(argv: list[str] | None = None) -> int:
+    """Exit status: 0 done, 1 the robot fell, 2 bad input, 3 a hardware fault, 130 interrupted
+    (Ctrl-C or SIGTERM: the hardware is closed on the way out, damping then disable)."""
+    from robot_ctrl.hw.adapter import HardwareFault
+
     args = build_parser().parse_args(argv)
+    in_main_thread = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, _interrupt) if in_main_thread else None
     try:
         return args.run(args)
     except ConfigError as exc:
         print(f"robot-ctrl: error: {exc}", file=sys.stderr)
         return 2
+    except HardwareFault as exc:
+        print(f"robot-ctrl: hardware fault: {exc}", file=sys.stderr)
+        return 3
+    except KeyboardInterrupt as exc:
+        print(f"robot-ctrl: interrupted{f' ({exc})' if str(exc) else ''}", file=sys.stderr)
+        return 130
+    finally:
+        if in_main_thread:
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":

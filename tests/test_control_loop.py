@@ -112,3 +112,21 @@ def test_walk_params_derive_the_robot_fields_and_refuse_contradictions():
         WalkParams(com_height=0.7).for_robot(**measured)
     with pytest.raises(ValueError, match="WalkParams.foot_width = 0.2 m is larger than the robot's sole"):
         WalkParams(foot_width=0.2).for_robot(**measured)
+
+
+def test_sigterm_closes_the_hardware_and_exits_130(tmp_path):
+    """A walk stopped by SIGTERM (as a process manager stops it) closes its hardware on the way out
+    (damping, then disable) and says so in one line, no traceback."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    process = subprocess.Popen([sys.executable, "-m", "robot_ctrl.cli", "walk", "--distance", "3", "--quiet",
+                                "--out", str(tmp_path)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(6.0)  # into the walk
+    process.send_signal(signal.SIGTERM)
+    out, err = process.communicate(timeout=30)
+    assert process.returncode == 130, err
+    assert err.strip().splitlines()[-1] == "robot-ctrl: interrupted (SIGTERM)" and "Traceback" not in err
+    assert not (tmp_path / "report.json").exists()  # no half-written report

@@ -11,7 +11,7 @@ import pytest
 
 from robot_ctrl.cli import main
 from robot_ctrl.hw import dynamixel_protocol as dxl
-from robot_ctrl.hw.adapter import LifecycleError
+from robot_ctrl.hw.adapter import HardwareFault, LifecycleError
 from robot_ctrl.hw.bus_config import load_bus_config
 from robot_ctrl.hw.dynamixel_backend import DynamixelBackend
 from robot_ctrl.hw.dynamixel_emulator import DynamixelEmulator
@@ -74,18 +74,25 @@ def test_bus_config_errors_name_the_joint_and_field(talos, tmp_path):
         load_bus_config(bad, talos.joint_names)
 
 
-@pytest.fixture
-def mit(talos):
-    """The safety layer over the MIT-CAN backend, the emulator on fresh virtual channels, a fake wall clock."""
+def configured_mit(talos, **config_changes):
+    """The safety layer over the MIT-CAN backend (configured, not active), the emulator on fresh
+    virtual channels, a fake wall clock."""
     config = load_bus_config("talos_mit_can", talos.joint_names)
     tag = uuid.uuid4().hex[:8]
-    config = dataclasses.replace(config, buses={k: dict(v, channel=f"{v['channel']}_{tag}") for k, v in config.buses.items()})
+    config = dataclasses.replace(config, buses={k: dict(v, channel=f"{v['channel']}_{tag}") for k, v in config.buses.items()},
+                                 **config_changes)
     emulator = MitCanEmulator(config, MujocoBackend(talos))
     emulator.start()
     clock = FakeClock()
     hw = SafetyLayer(MitCanBackend(config, talos.kd, body_sensors=emulator.body_state),
                      SafetyLimits.from_robot(talos, soft_start=0.1), clock=clock)
     hw.configure()
+    return hw, emulator, clock
+
+
+@pytest.fixture
+def mit(talos):
+    hw, emulator, clock = configured_mit(talos)
     hw.activate()
     yield hw, emulator, clock, hw.read()
     hw.close()
@@ -146,15 +153,69 @@ def test_missed_write_trips_the_watchdog_into_damping(talos, mit):
     assert hw.mode == "normal" and np.all(emulator.received[-1][1].kp <= 0.06 * talos.kp + 3.0)
 
 
-def test_stale_state_puts_the_servos_in_damping(talos, mit):
+def test_stale_state_puts_the_servos_in_damping(talos):
+    hw, emulator, clock = configured_mit(talos, max_missed_replies=100)  # the backend holds on: the layer acts
+    try:
+        hw.activate()
+        state = hw.read()
+        for _ in range(30):
+            state = tick(hw, clock, hold(talos, state))
+        emulator.drop_replies = True
+        for _ in range(10):
+            tick(hw, clock, hold(talos, state))
+        assert hw.interventions["stale_state"] == 1 and hw.mode == "damping"
+        assert np.all(emulator.received[-1][1].kp == 0)
+    finally:
+        hw.close()
+        emulator.close()
+
+
+def test_a_silent_motor_fails_activation_and_leaves_every_motor_disabled(talos):
+    hw, emulator, clock = configured_mit(talos)
+    emulator.silent = {talos.joint_names.index("leg_right_4_joint")}
+    try:
+        with pytest.raises(HardwareFault, match="no reply from leg_right_4_joint on enable"):
+            hw.activate()
+        assert hw.state is LifecycleState.FAULT and hw.interventions["backend_fault"] == 1
+        assert not emulator.enabled.any()
+    finally:
+        hw.close()
+        emulator.close()
+
+
+def test_missed_replies_hold_the_last_value_then_fault_into_damping(talos, mit):
     hw, emulator, clock, state = mit
     for _ in range(30):
         state = tick(hw, clock, hold(talos, state))
-    emulator.drop_replies = True
-    for _ in range(10):
+    knee = talos.joint_names.index("leg_left_4_joint")
+    emulator.silent = {knee}
+    held = state.q[knee]
+    for _ in range(3):  # max_missed_replies: 3 in a row are held
+        before = state.t
+        state = tick(hw, clock, hold(talos, state))
+        assert state.t > before and state.q[knee] == held and hw.mode == "normal"
+    assert hw.backend.missed[knee] == 3 and hw.backend.missing_replies == 3
+    with pytest.raises(HardwareFault, match="leg_left_4_joint missed more than 3 replies in a row"):
         tick(hw, clock, hold(talos, state))
-    assert hw.interventions["stale_state"] == 1 and hw.mode == "damping"
-    assert np.all(emulator.received[-1][1].kp == 0)
+    assert hw.state is LifecycleState.FAULT and np.all(emulator.received[-1][1].kp == 0)  # damping sent
+    with pytest.raises(LifecycleError):
+        hw.write(hold(talos, state))
+    emulator.silent = set()
+    hw.reset()
+    hw.activate()
+    tick(hw, clock, hold(talos, hw.read()))
+    assert hw.state is LifecycleState.ACTIVE and hw.backend.missed.max() == 0
+
+
+def test_close_sends_damping_then_disables_every_motor(talos, mit):
+    hw, emulator, clock, state = mit
+    for _ in range(30):
+        state = tick(hw, clock, hold(talos, state))
+    assert emulator.enabled.all() and emulator.received[-1][1].kp.max() > 0
+    hw.close()
+    last = emulator.received[-1][1]
+    assert np.all(last.kp == 0) and np.abs(last.tau_ff).max() < 0.1  # damping (zero within a 12-bit step)
+    assert not emulator.enabled.any()
 
 
 def test_estop_latches_until_reset(talos, mit):
@@ -223,3 +284,28 @@ def test_balance_demo_over_an_emulated_bus(kind, tmp_path):
     report = json.loads((tmp_path / "report.json").read_text())
     assert report["fell"] is False and report["hand_error_m"] < 0.01
     assert report["safety"]["interventions"] == {} and report["safety"]["state"] == "active"
+
+
+def test_a_walk_over_a_bus_that_loses_one_reply_in_a_hundred(talos):
+    """3 m over the emulated MIT-CAN bus with 1 % of the replies lost at random: the lost values are
+    held, the walk does not fall and ends at its goal."""
+    from robot_ctrl.control.path_follower import WalkGoal
+    from robot_ctrl.scenarios.walk import run_walk
+
+    config = load_bus_config("talos_mit_can", talos.joint_names)
+    tag = uuid.uuid4().hex[:8]
+    config = dataclasses.replace(config, buses={k: dict(v, channel=f"{v['channel']}_{tag}") for k, v in config.buses.items()})
+    emulator = MitCanEmulator(config, MujocoBackend(talos))
+    emulator.drop_probability = 0.01
+    emulator.start()
+    backend = MitCanBackend(config, talos.kd, body_sensors=emulator.body_state)
+    hw = SafetyLayer(backend, SafetyLimits.from_robot(talos), clock=emulator.clock)
+    try:
+        report = run_walk(talos, hw, WalkGoal(distance=3.0), log=lambda line: None)
+    finally:
+        hw.close()
+        emulator.close()
+    assert report["fell"] is False and report["final_position_error_m"] < 0.05
+    ticks = report["time_s"] / DT
+    assert 0.005 < backend.missing_replies / (ticks * talos.nj) < 0.015  # about 1 % were lost
+    assert backend.missed.max() <= config.max_missed_replies

@@ -24,6 +24,11 @@ class LifecycleError(RuntimeError):
     """A call was made in a lifecycle state that does not allow it."""
 
 
+class HardwareFault(RuntimeError):
+    """A backend failed (a bus error, a silent motor); the safety layer put the servos in damping
+    and latched FAULT. The message says what failed."""
+
+
 class HardwareAdapter(ABC):
     def __init__(self, nj: int):
         self.nj = nj

@@ -11,6 +11,8 @@ entry per joint of the robot::
       leg: {position: [-12.5, 12.5], velocity: [-20, 20], kp: [0, 10000], kd: [0, 300], torque: [-320, 320]}
     joints:
       leg_left_1_joint: {bus: can0, id: 1, model: leg, direction: 1, zero_offset: 0.0, gear_ratio: 1.0}
+    reply_timeout_s: 0.001                # mit_can: the longest wait for a tick's replies
+    max_missed_replies: 3                 # a motor's last values are held this many ticks, then a fault
 
 Conventions (motor side = what crosses the bus, joint side = the robot config's joint order)::
 
@@ -55,6 +57,8 @@ class BusConfig:
     models: dict[str, dict[str, Any]]
     motors: tuple[MotorMap, ...]  # in the robot's joint order
     path: Path
+    reply_timeout: float = 0.001  # [s] the longest wait for a tick's replies (mit_can)
+    max_missed_replies: int = 3  # replies a motor may miss in a row (its last values held) before a fault
 
     # Joint side <-> motor side, vectorized over the joints.
     @property
@@ -121,6 +125,12 @@ def load_bus_config(name_or_path: str | Path, joint_names: tuple[str, ...]) -> B
                 value = spec.get(key) if isinstance(spec, dict) else None
                 _require(isinstance(value, (int, float)) and value > 0, f"models.{model}.{key} must be a number > 0",
                          path)
+    timeout = data.get("reply_timeout_s", BusConfig.reply_timeout)
+    _require(isinstance(timeout, (int, float)) and 1e-4 <= timeout <= 1.0,
+             f"reply_timeout_s = {timeout!r} is outside the allowed range [0.0001, 1] s", path)
+    missed = data.get("max_missed_replies", BusConfig.max_missed_replies)
+    _require(isinstance(missed, int) and 0 <= missed <= 1000,
+             f"max_missed_replies = {missed!r} is outside the allowed range [0, 1000]", path)
     joints = data.get("joints") or {}
     _require(isinstance(joints, dict), "joints must map joint names to motors", path)
     missing = [j for j in joint_names if j not in joints]
@@ -150,4 +160,4 @@ def load_bus_config(name_or_path: str | Path, joint_names: tuple[str, ...]) -> B
         gear = entry.get("gear_ratio", 1.0)
         _require(isinstance(gear, (int, float)) and gear > 0, f"joints.{joint}.gear_ratio must be > 0", path)
         motors.append(MotorMap(joint, bus, motor_id, model, int(direction), float(zero), float(gear)))
-    return BusConfig(backend, buses, models, tuple(motors), path)
+    return BusConfig(backend, buses, models, tuple(motors), path, float(timeout), missed)

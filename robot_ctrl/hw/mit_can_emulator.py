@@ -10,7 +10,9 @@ the state of that instant while its physics keeps running). A disabled motor (af
 
 Every decoded command is kept in ``received`` (joint side, with the plant time) so tests can check
 what actually crossed the bus. Fault injection: with ``drop_replies`` set, the motors still act on
-commands but stop answering (a broken reply path). ``body_state()`` gives the plant's last full state, standing in for
+commands but stop answering (a broken reply path); motors whose index is in ``silent`` never answer
+(unpowered, or a wrong CAN id); each other reply is lost with probability ``drop_probability``
+(a noisy bus; seeded). ``body_state()`` gives the plant's last full state, standing in for
 the robot's IMU and force sensors, which are not on the motor buses.
 """
 
@@ -40,6 +42,9 @@ class MitCanEmulator:
         self.encoder_zero = np.zeros(self.nj)  # set by the set-zero frame [rad, motor side]
         self.received: list[tuple[float, JointCommand]] = []
         self.drop_replies = False
+        self.silent: set[int] = set()
+        self.drop_probability = 0.0
+        self._rng = np.random.default_rng(0)
         self._pending: list[tuple[float, float, float, float, float] | None] = [None] * self.nj
         self._lock = threading.Lock()
         self._state: JointState | None = None
@@ -122,7 +127,7 @@ class MitCanEmulator:
             self._reply(i)
 
     def _reply(self, i: int) -> None:
-        if self.drop_replies:
+        if self.drop_replies or i in self.silent or (self.drop_probability and self._rng.random() < self.drop_probability):
             return
         m, s = self.config.motors[i], self._state
         v = m.direction * m.gear_ratio * s.dq[i]

@@ -34,6 +34,12 @@ What it watches:
   ``reset()``.
 - ``estop``: latches first, then puts the backend's servos in damping (again on every call,
   counted once); thread-safe; every later ``write`` raises ``LifecycleError`` until ``reset()`` and ``activate()``.
+- ``backend_fault``: the backend's ``activate``, ``read`` or ``write`` raised (a bus error, a
+  silent motor) → the layer latches FAULT, sends the backend's e-stop (damping) and raises
+  ``HardwareFault`` naming what failed.
+
+``close()`` (also on Ctrl-C and SIGTERM through the command line) sends damping, then deactivates
+the backend (motors disabled), then closes it: a drive that misses the disable is left soft.
 
 Threads: the layer's lock guards its own bookkeeping and is never held across a call into the
 backend, so ``estop()`` and the watchdog act while a write is in flight. A write that was in flight
@@ -53,7 +59,7 @@ from typing import Callable
 
 import numpy as np
 
-from robot_ctrl.hw.adapter import HardwareAdapter
+from robot_ctrl.hw.adapter import HardwareAdapter, HardwareFault
 from robot_ctrl.hw.servo_torque import bound_servo_torque
 from robot_ctrl.hw.types import CommandError, JointCommand, JointState, LifecycleState
 from robot_ctrl.robot.model import RobotModel
@@ -148,7 +154,7 @@ class SafetyLayer(HardwareAdapter):
         self.backend.configure()
 
     def _on_activate(self) -> None:
-        self.backend.activate()
+        self._backend_call(self.backend.activate)
         with self._lock:
             self._begin_soft_start()
             self._last_write = self.clock()  # armed: a controller that never writes is caught too
@@ -183,7 +189,17 @@ class SafetyLayer(HardwareAdapter):
 
     def _on_close(self) -> None:
         self.stop_watchdog()
-        self.backend.close()
+        try:
+            if self._state is S.ACTIVE and self.backend.state is S.ACTIVE:
+                with self._lock:
+                    self.mode = "off"
+                    damping = self._bounded(self._damping_command())
+                self.backend.write(damping)  # soft first, in case a drive misses the disable
+                self.backend.deactivate()
+        except Exception:
+            logger.exception("safety: damping and disable on close failed")
+        finally:
+            self.backend.close()
         if self.interventions:
             logger.info("safety interventions: %s", dict(self.interventions))
 
@@ -214,7 +230,7 @@ class SafetyLayer(HardwareAdapter):
         return self._latest_t
 
     def _read(self) -> JointState:
-        state = self.backend.read()
+        state = self._backend_call(self.backend.read)
         problem = state.problem(self.nj)
         with self._lock:
             if problem is not None:
@@ -243,7 +259,24 @@ class SafetyLayer(HardwareAdapter):
             self._reassert_safe()
 
     def _write(self, command: JointCommand) -> None:
-        self.backend.write(command)
+        self._backend_call(self.backend.write, command)
+
+    def _backend_call(self, call, *args):
+        """``call(*args)``; if the backend raises: FAULT latched, the backend's damping, HardwareFault."""
+        try:
+            return call(*args)
+        except Exception as exc:
+            detail = f"{type(self.backend).__name__}.{call.__name__}: {exc}"
+            with self._lock:
+                self._intervene("backend_fault", detail)
+                self._state = S.FAULT
+                self.mode = "off"
+                self._epoch += 1
+            try:
+                self.backend.estop()
+            except Exception:
+                logger.exception("safety: the backend's damping failed as well")
+            raise HardwareFault(f"{detail}; the servos were sent damping, FAULT latched until reset()") from exc
 
     def check_watchdog(self) -> None:
         """Enter damping mode if no write came for ``watchdog_periods`` control periods."""
