@@ -39,6 +39,13 @@ class HardwareKind(_Mode):
     MUJOCO = "mujoco"
     MIT_CAN_EMULATED = "mit-can-emulated"
     DYNAMIXEL_EMULATED = "dynamixel-emulated"
+    MIT_CAN = "mit-can"  # real drives on the buses named in the bus config
+    DYNAMIXEL = "dynamixel"
+
+    @property
+    def real(self) -> bool:
+        """Real servos: no simulation behind them, no body sensors, the loop keeps the time."""
+        return self in (HardwareKind.MIT_CAN, HardwareKind.DYNAMIXEL)
 
 
 _OPTION = {FilterMode: "dynfilter", ArmMotion: "arms", HardwareKind: "hw"}  # the option each is chosen by

@@ -7,11 +7,15 @@ A tick at time ``t_k = k dt``::
     recorder.on_command(tick)                log the tick: its plan against the state it used
     commander.begin_tick(t_k+1)              commanders see the group before the next tick's plan
     controller.prepare()                     the next tick's state-independent work, while the robot moves
+    pacer.wait()                             real hardware only: sleep to the next tick's deadline
     states = [hardware.read()]               waits for the robot's control period to end
     recorder.on_state(tick)                  metrics of what the robot did
     stop.reason(tick)                        the first stop condition that holds ends the run
 
-so the controllers compute while their robots move, as on a real robot (ros2_control's split:
+A simulated robot waits for its controller, so the loop runs as fast as it computes; a real one
+does not, and a :class:`~robot_ctrl.control.pacer.Pacer` keeps the ticks on absolute deadlines
+(the state is read at the deadline, the command follows it by the controller's compute time).
+The controllers compute while their robots move, as on a real robot (ros2_control's split:
 hardware components read and write, controllers step, the loop owns the timing). Commanders steer a
 controller only through its command API (``set_velocity``, ``stop_at``, ...), at the controller's
 sample hook or in ``begin_tick``; recorders and stop conditions only observe.
@@ -23,6 +27,7 @@ import time
 from dataclasses import dataclass
 from typing import Protocol, Sequence
 
+from robot_ctrl.control.pacer import Pacer
 from robot_ctrl.hw.adapter import HardwareAdapter
 from robot_ctrl.hw.types import JointCommand, JointState
 
@@ -82,13 +87,14 @@ class LoopResult:
 class ControlLoop:
     def __init__(self, hardware: Sequence[HardwareAdapter], controllers: Sequence[Controller], dt: float,
                  commanders: Sequence[Commander] = (), recorders: Sequence[Recorder] = (),
-                 stops: Sequence[StopCondition] = ()):
+                 stops: Sequence[StopCondition] = (), pacer: Pacer | None = None):
         if len(hardware) != len(controllers) or not hardware:
             raise ValueError("ControlLoop needs one controller per hardware adapter (at least one)")
         if not stops:
             raise ValueError("ControlLoop needs at least one stop condition (a time limit)")
         self.hardware, self.controllers, self.dt = list(hardware), list(controllers), dt
         self.commanders, self.recorders, self.stops = list(commanders), list(recorders), list(stops)
+        self.pacer = pacer
 
     def run(self, states: Sequence[JointState]) -> LoopResult:
         """Run from the ``states`` just read until a stop condition holds; the controllers are
@@ -111,6 +117,8 @@ class ControlLoop:
                     commander.begin_tick(t + self.dt)
                 for controller in self.controllers:
                     controller.prepare()
+                if self.pacer is not None:
+                    self.pacer.wait()
                 states = [hw.read() for hw in self.hardware]
                 tick = Tick(k, t, states, commands)
                 for recorder in self.recorders:

@@ -7,6 +7,9 @@
   buses to a ``MitCanEmulator`` whose motors drive the MuJoCo simulation (hardware in the loop).
 - ``dynamixel-emulated``: ``DynamixelBackend`` behind a ``SafetyLayer``, over a pseudo-terminal to a
   ``DynamixelEmulator`` driving the MuJoCo simulation.
+- ``mit-can``, ``dynamixel``: real drives on the interfaces the bus config (``--bus-config``, required)
+  names, behind a ``SafetyLayer`` on the wall clock with its watchdog thread. They read the joints
+  only (no base pose, IMU or foot sensors): the bring-up commands (``robot-ctrl hw``) run on them.
 
 ``disturbances`` (pushes, model mismatch, latency, sensor noise: ``hw/disturbances.py``) act on the
 simulated robot, on the emulated buses' too. Every kind comes behind a ``SafetyLayer``: what a
@@ -34,6 +37,7 @@ from robot_ctrl.hw.mujoco_world import MujocoWorld
 from robot_ctrl.hw.robot_process import RobotProcess
 from robot_ctrl.hw.safety import SafetyLayer, SafetyLimits
 from robot_ctrl.modes import HardwareKind
+from robot_ctrl.robot.config import ConfigError
 from robot_ctrl.robot.model import RobotModel
 
 
@@ -54,8 +58,16 @@ def open_hardware(kind: HardwareKind | str, robot: RobotModel, bus_config: str |
         finally:
             hw.close()
         return
-    plant = MujocoBackend(robot, control_dt, viewer=viewer, video=video, disturbances=disturbances, drawer=drawer)
     limits = SafetyLimits.from_robot(robot, control_dt)
+    if kind.real:
+        hw = SafetyLayer(_bus_backend(kind, robot, bus_config), limits)  # the wall clock
+        hw.start_watchdog()
+        try:
+            yield hw
+        finally:
+            hw.close()
+        return
+    plant = MujocoBackend(robot, control_dt, viewer=viewer, video=video, disturbances=disturbances, drawer=drawer)
     if kind is HardwareKind.MIT_CAN_EMULATED:
         from robot_ctrl.hw.mit_can_backend import MitCanBackend
         from robot_ctrl.hw.mit_can_emulator import MitCanEmulator
@@ -80,6 +92,21 @@ def open_hardware(kind: HardwareKind | str, robot: RobotModel, bus_config: str |
     finally:
         hw.close()
         emulator.close()
+
+
+def _bus_backend(kind: HardwareKind, robot: RobotModel, bus_config: str | None):
+    """The backend of real drives, on the interfaces the bus config names (no body sensors)."""
+    if bus_config is None:
+        raise ConfigError(f"--hw {kind.value} needs --bus-config: the YAML naming your buses, CAN ids, directions "
+                         "and zero offsets (start from configs/hw/talos_mit_can.yaml or talos_dynamixel.yaml)")
+    config = load_bus_config(bus_config, robot.joint_names)
+    if kind is HardwareKind.MIT_CAN:
+        from robot_ctrl.hw.mit_can_backend import MitCanBackend
+
+        return MitCanBackend(config, robot.kd)
+    from robot_ctrl.hw.dynamixel_backend import DynamixelBackend
+
+    return DynamixelBackend(config, robot.kd)
 
 
 @contextmanager

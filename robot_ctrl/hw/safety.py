@@ -34,7 +34,7 @@ What it watches:
   ``reset()``.
 - ``estop``: latches first, then puts the backend's servos in damping (again on every call,
   counted once); thread-safe; every later ``write`` raises ``LifecycleError`` until ``reset()`` and ``activate()``.
-- ``backend_fault``: the backend's ``activate``, ``read`` or ``write`` raised (a bus error, a
+- ``backend_fault``: the backend's ``configure``, ``activate``, ``read`` or ``write`` raised (a bus error, a
   silent motor) → the layer latches FAULT, sends the backend's e-stop (damping) and raises
   ``HardwareFault`` naming what failed.
 
@@ -151,7 +151,7 @@ class SafetyLayer(HardwareAdapter):
 
     # Lifecycle ----------------------------------------------------------------------------------
     def _on_configure(self) -> None:
-        self.backend.configure()
+        self._backend_call(self.backend.configure)
 
     def _on_activate(self) -> None:
         self._backend_call(self.backend.activate)

@@ -1,0 +1,131 @@
+"""Bring-up of a robot's servos, one step at a time (docs/hardware.md, "Bring-up"): ``scan`` (every
+motor answers), ``read`` (the joints against their limits), ``check`` (scan, and the posture a start
+may move from), ``stand`` (the start sequence to half-sitting), ``jog`` (one joint by an angle),
+``zero`` (a drive's encoder zero). Each configures the hardware it is given and leaves the rest to
+its owner (``open_hardware``: the safety layer's close sends damping, then disables the motors).
+A start refused or a tracking fault is a :class:`~robot_ctrl.hw.adapter.HardwareFault`."""
+
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+import pinocchio as pin
+
+from robot_ctrl.control.loop import ControlLoop
+from robot_ctrl.control.pacer import Pacer
+from robot_ctrl.control.start_sequence import StartParams, StartRefused, StartSequence, TrackingFault
+from robot_ctrl.eval.recorders import HeldFor, TimeLimit
+from robot_ctrl.geometry import SIDES
+from robot_ctrl.hw.adapter import HardwareFault
+from robot_ctrl.hw.safety import SafetyLayer
+from robot_ctrl.robot.model import RobotModel, configuration
+
+HOLD_S = 1.0  # [s] the posture is held after a move before the command ends
+
+
+def scan(hw: SafetyLayer) -> dict:
+    """Enable every motor and read back: a silent one fails ``activate`` with its joint's name."""
+    hw.configure()
+    hw.activate()
+    hw.read()
+    hw.deactivate()
+    return {"motors": hw.nj, "answering": hw.nj}
+
+
+def read(robot: RobotModel, hw: SafetyLayer) -> list[dict]:
+    """The measured joints against their position limits. The motors are enabled for the read (an
+    MIT drive answers only in motor mode) and sent nothing stiff."""
+    hw.configure()
+    hw.activate()
+    state = hw.read()
+    hw.deactivate()
+    rows = []
+    for i, name in enumerate(robot.joint_names):
+        q, tolerance = float(state.q[i]), StartParams.limit_tolerance  # encoder steps, calibration
+        status = ("below lower limit" if q < robot.lower[i] - tolerance else
+                  "above upper limit" if q > robot.upper[i] + tolerance else "ok")
+        row = {"joint": name, "q_rad": round(q, 4), "lower_rad": round(float(robot.lower[i]), 4),
+               "upper_rad": round(float(robot.upper[i]), 4), "status": status}
+        if state.temperature is not None:
+            row["temperature_c"] = round(float(state.temperature[i]), 1)
+        rows.append(row)
+    return rows
+
+
+def check(robot: RobotModel, hw: SafetyLayer, params: StartParams = StartParams()) -> dict:
+    """``scan``, then whether the measured posture is one ``stand`` may start from."""
+    result = scan(hw)
+    state = hw.read()
+    try:
+        StartSequence(robot, state, params=params)
+    except StartRefused as exc:
+        raise HardwareFault(f"the start would be refused: {exc}") from exc
+    far = np.abs(state.q - np.array(robot.config.half_sitting))
+    return result | {"largest_distance_to_start_rad": round(float(far.max()), 4),
+                     "farthest_joint": robot.joint_names[int(far.argmax())]}
+
+
+def move(robot: RobotModel, hw: SafetyLayer, target: Callable[[np.ndarray], np.ndarray] | None = None,
+         params: StartParams = StartParams(), pacer: Pacer | None = None) -> dict:
+    """The start sequence from the measured posture to ``target(measured q)`` (default
+    half-sitting), then ``HOLD_S`` of holding; ``pacer`` on real hardware."""
+    hw.configure()
+    hw.activate()
+    state = hw.read()
+    try:
+        goal = np.array(robot.config.half_sitting) if target is None else target(np.asarray(state.q, dtype=float))
+        sequence = StartSequence(robot, state, goal, params, gravity_feedforward(robot, goal))
+        done = HeldFor(lambda: sequence.done, HOLD_S, "held the posture")
+        loop = ControlLoop([hw], [sequence], params.control_dt, stops=[
+            done, TimeLimit(params.duration + HOLD_S + 1.0, "did not settle")], pacer=pacer)
+        result = loop.run([state])
+    except (StartRefused, TrackingFault) as exc:
+        hw.estop()
+        raise HardwareFault(f"{type(exc).__name__}: {exc}; the servos were sent damping") from exc
+    error = np.abs(result.states[0].q - sequence.target)
+    report = {"reached": "held the posture" in result.stop_reason, "largest_tracking_error_rad":
+              round(sequence.largest_error, 4), "final_error_rad": round(float(error.max()), 4),
+              "final_error_joint": robot.joint_names[int(error.argmax())], "safety": hw.report()}
+    return report | ({"timing": pacer.report()} if pacer is not None else {})
+
+
+def gravity_feedforward(robot: RobotModel, q: np.ndarray) -> np.ndarray:
+    """Gravity torques of the joints at the posture ``q`` (joint order), zero for the legs: whether
+    the robot hangs in a gantry or stands changes the legs' load, not the upper body's."""
+    model = robot.pin
+    tau = pin.computeGeneralizedGravity(model, model.createData(), configuration(
+        robot, np.zeros(3), np.array([0.0, 0.0, 0.0, 1.0]), q))[robot.v_index]
+    feet = [model.frames[robot.frame_ids[f"{side}_foot"]].parentJoint for side in SIDES]
+    legs = [i for i, name in enumerate(robot.joint_names)
+            if any(model.getJointId(name) in model.supports[foot] for foot in feet)]
+    tau[legs] = 0.0
+    return tau
+
+
+def jog_target(robot: RobotModel, joint: str, delta: float) -> Callable[[np.ndarray], np.ndarray]:
+    """The measured posture with ``joint`` moved by ``delta`` [rad]; refused outside its limits."""
+    if joint not in robot.joint_names:
+        raise ValueError(f"jog: {joint!r} is not a joint of {robot.name}")
+    if not (np.isfinite(delta) and abs(delta) <= np.pi):
+        raise ValueError(f"jog: DELTA = {delta} rad is outside the allowed range [-3.1416, 3.1416]")
+    i = robot.joint_names.index(joint)
+
+    def target(q: np.ndarray) -> np.ndarray:
+        goal = q.copy()
+        goal[i] += delta
+        if not robot.lower[i] <= goal[i] <= robot.upper[i]:
+            raise StartRefused(f"{joint} would go to {goal[i]:.3f} rad, outside its limits "
+                               f"[{robot.lower[i]:.3f}, {robot.upper[i]:.3f}]")
+        return goal
+
+    return target
+
+
+def zero(hw: SafetyLayer, joint: str) -> None:
+    """Make ``joint``'s drive take its present position as its encoder zero (MIT drives)."""
+    backend = hw.backend
+    if not hasattr(backend, "zero_motor"):
+        raise ValueError(f"zero: the {type(backend).__name__} cannot set a drive's zero")
+    hw.configure()
+    backend.zero_motor(joint)
