@@ -207,6 +207,36 @@ def test_missed_replies_hold_the_last_value_then_fault_into_damping(talos, mit):
     assert hw.state is LifecycleState.ACTIVE and hw.backend.missed.max() == 0
 
 
+def test_a_late_reply_is_dropped_not_read_as_the_next_ticks(talos, mit):
+    import can
+
+    hw, emulator, clock, state = mit
+    for _ in range(30):
+        state = tick(hw, clock, hold(talos, state))
+    emulator.silent = set(range(talos.nj))  # nothing answers any more ...
+    motor = hw.backend.config.motors[0]
+    stale = pack_reply(motor.id, 1.0, 0.0, 0.0, hw.backend.ranges[0])  # ... but an old reply is still queued
+    with can.Bus(**hw.backend.config.buses[motor.bus]) as injector:
+        injector.send(can.Message(arbitration_id=0, data=stale, is_extended_id=False))
+        threading.Event().wait(0.01)
+        tick(hw, clock, hold(talos, state))
+    assert hw.backend.late_replies == 1 and hw.backend.missed[0] == 1  # dropped, and counted as missed
+    assert abs(hw.read().q[0] - state.q[0]) < 1e-3  # the joint kept its last value, not the stale 1.0 rad
+
+
+def test_a_bus_off_fails_the_write_into_a_hardware_fault(talos, mit, monkeypatch):
+    import can
+
+    hw, emulator, clock, state = mit
+    for _ in range(5):
+        state = tick(hw, clock, hold(talos, state))
+    bus = hw.backend._buses["can2"]
+    monkeypatch.setattr(type(bus), "state", property(lambda self: can.BusState.ERROR if self is bus else can.BusState.ACTIVE))
+    with pytest.raises(HardwareFault, match="CAN bus can2 is bus-off"):
+        tick(hw, clock, hold(talos, state))
+    assert hw.state is LifecycleState.FAULT and hw.interventions["backend_fault"] == 1
+
+
 def test_close_sends_damping_then_disables_every_motor(talos, mit):
     hw, emulator, clock, state = mit
     for _ in range(30):
@@ -309,3 +339,65 @@ def test_a_walk_over_a_bus_that_loses_one_reply_in_a_hundred(talos):
     ticks = report["time_s"] / DT
     assert 0.005 < backend.missing_replies / (ticks * talos.nj) < 0.015  # about 1 % were lost
     assert backend.missed.max() <= config.max_missed_replies
+
+
+def configured_dynamixel(talos):
+    config = load_bus_config("talos_dynamixel", talos.joint_names)
+    emulator = DynamixelEmulator(config, MujocoBackend(talos))
+    emulator.start()
+    config = dataclasses.replace(config, buses={"port": dict(config.buses["port"], device=emulator.port_name)})
+    clock = FakeClock()
+    hw = SafetyLayer(DynamixelBackend(config, talos.kd, body_sensors=emulator.body_state),
+                     SafetyLimits.from_robot(talos, soft_start=0.05), clock=clock)
+    hw.configure()
+    return hw, emulator, clock
+
+
+def test_dynamixel_hardware_errors_gain_range_and_a_soft_torque_on(talos):
+    from robot_ctrl.hw.dynamixel_backend import ERROR_CHECK_TICKS
+
+    hw, emulator, clock = configured_dynamixel(talos)
+    try:
+        knee = talos.joint_names.index("leg_left_4_joint")
+        emulator.hardware_error[knee] = 0x20  # shut down by an overload before we start
+        with pytest.raises(HardwareFault, match="leg_left_4_joint: hardware error \\(overload\\)"):
+            hw.activate()
+        assert not emulator.torque_enable.any()
+        emulator.hardware_error[knee] = 0  # rebooted
+        hw.reset()
+        hw.activate()
+        # Torque came on with P = 0 and the goal at the present position.
+        assert emulator.torque_enable.all() and not emulator.gains[:, 2].any()
+        state = hw.read()
+        for _ in range(10):
+            state = tick(hw, clock, hold(talos, state))
+        hw.backend._send(hold(talos, state, kp=1e6 * np.ones(talos.nj)))  # beyond the register range
+        assert emulator.gains[:, 2].max() == dxl.GAIN_MAX  # clipped, so the servo took it
+        emulator.hardware_error[knee] = 0x04  # overheating during the run
+        with pytest.raises(HardwareFault, match="leg_left_4_joint: hardware error \\(overheating\\)"):
+            for _ in range(ERROR_CHECK_TICKS):
+                state = tick(hw, clock, hold(talos, state))
+        assert hw.state is LifecycleState.FAULT
+    finally:
+        hw.close()
+        emulator.close()
+
+
+def test_an_expired_dynamixel_bus_watchdog_fails_the_run(talos):
+    """A host that stalls past the servos' bus watchdog (100 ms) leaves them ignoring goals: the
+    next status read says so instead of the robot silently going limp."""
+    from robot_ctrl.hw.dynamixel_backend import ERROR_CHECK_TICKS
+
+    hw, emulator, clock = configured_dynamixel(talos)
+    try:
+        hw.activate()
+        state = hw.read()
+        for _ in range(5):
+            state = tick(hw, clock, hold(talos, state))
+        threading.Event().wait(0.3)  # the host stalls (the layer's clock is held: only the servos notice)
+        with pytest.raises(HardwareFault, match="bus watchdog expired"):
+            for _ in range(ERROR_CHECK_TICKS):
+                state = tick(hw, clock, hold(talos, state))
+    finally:
+        hw.close()
+        emulator.close()

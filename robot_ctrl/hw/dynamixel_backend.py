@@ -2,9 +2,14 @@
 through ``dynamixel_sdk``.
 
 Per tick: a Sync Write of Goal Position to every servo, a Sync Write of the position D/I/P gains
-when they changed, and one Sync Read of present current, velocity, position and temperature.
-``activate`` clears and arms each servo's Bus Watchdog (``watchdog_ms``) and enables torque;
-``deactivate`` disables torque; ``estop`` writes P = 0 and D = ``kd_damping`` (damping mode).
+when they changed (clipped to the register range, ``GAIN_MAX``), and one Sync Read of present
+current, velocity, position and temperature; every ``ERROR_CHECK_TICKS`` ticks, a Sync Read of
+each servo's Hardware Error Status and Bus Watchdog: a servo shut down by an error (overload,
+overheating...) or whose watchdog expired (it then ignores goals) fails the write, naming it.
+``activate`` refuses a servo in hardware error, writes P = 0, D = ``kd_damping`` and goal = present
+position, then clears and arms each servo's Bus Watchdog (``watchdog_ms``) and enables torque (so
+torque comes on soft and where the servo is); ``deactivate`` disables torque; ``estop`` writes P = 0
+and D = ``kd_damping`` (damping mode).
 
 A Dynamixel takes a position goal and gains, not a velocity or torque feedforward. The servo law
 ``kp (q_d − q) + kd (dq_d − dq) + τ_ff`` is kept exactly by folding the feedforward into the goal:
@@ -32,6 +37,8 @@ from robot_ctrl.hw.adapter import HardwareAdapter
 from robot_ctrl.hw.bus_config import BusConfig
 from robot_ctrl.hw.types import JointCommand, JointState
 
+ERROR_CHECK_TICKS = 40  # [ticks] between reads of the Hardware Error Status and the Bus Watchdog
+
 
 class DynamixelBackend(HardwareAdapter):
     def __init__(self, config: BusConfig, kd_damping: np.ndarray, body_sensors: Callable[[], JointState] | None = None,
@@ -57,6 +64,7 @@ class DynamixelBackend(HardwareAdapter):
         self._body: JointState | None = None
         self.missing_replies = 0
         self._port = None
+        self._ticks = 0
 
     # Lifecycle hooks ------------------------------------------------------------------------------
     def _on_configure(self) -> None:
@@ -70,18 +78,26 @@ class DynamixelBackend(HardwareAdapter):
         self._goal = sdk.GroupSyncWrite(self._port, self._packet, dxl.GOAL_POSITION, 4)
         self._gain_write = sdk.GroupSyncWrite(self._port, self._packet, dxl.GAINS, 6)
         self._present = sdk.GroupSyncRead(self._port, self._packet, dxl.PRESENT, dxl.PRESENT_LENGTH)
+        self._status = {address: sdk.GroupSyncRead(self._port, self._packet, address, 1)
+                        for address in (dxl.HARDWARE_ERROR_STATUS, dxl.BUS_WATCHDOG)}
         for servo in self.ids:
             self._present.addParam(servo)
+            for group in self._status.values():
+                group.addParam(servo)
         self._sync_read()
         if self._time is None:
             raise OSError(f"no answer from the servos {self.ids} on {port['device']}")
 
     def _on_activate(self) -> None:
+        self._check_servos(watchdog=False)
+        self._gains = None
+        self._on_estop()  # P = 0, D = damping, goal = present position: torque comes on soft, in place
         for servo in self.ids:
             self._write_byte(servo, dxl.BUS_WATCHDOG, 0)  # clears a tripped watchdog
             self._write_byte(servo, dxl.TORQUE_ENABLE, 1)
             self._write_byte(servo, dxl.BUS_WATCHDOG, self.watchdog_units)
         self._sync_read()
+        self._ticks = 0
 
     def _on_deactivate(self) -> None:
         for servo in self.ids:
@@ -108,6 +124,28 @@ class DynamixelBackend(HardwareAdapter):
     # Read / write ---------------------------------------------------------------------------------
     def _write(self, cmd: JointCommand) -> None:
         self._send(cmd)
+        self._ticks += 1
+        if self._ticks % ERROR_CHECK_TICKS == 0:
+            self._check_servos()
+
+    def _check_servos(self, watchdog: bool = True) -> None:
+        """Raise, naming the joints, if a servo reports a hardware error or (``watchdog``) an
+        expired bus watchdog."""
+        problems = []
+        for address, group in self._status.items():
+            if address == dxl.BUS_WATCHDOG and not watchdog:
+                continue
+            self._check(group.txRxPacket(), "status sync read")
+            for m, servo in zip(self.config.motors, self.ids):
+                value = group.getData(servo, address, 1)
+                if address == dxl.HARDWARE_ERROR_STATUS and value:
+                    problems.append(f"{m.joint}: hardware error ({dxl.hardware_errors(value)}), torque off until "
+                                    "the servo is rebooted")
+                elif address == dxl.BUS_WATCHDOG and dxl.to_signed(value, 1) < 0:
+                    problems.append(f"{m.joint}: bus watchdog expired (goals ignored): no write for "
+                                    f"{self.watchdog_units * 20} ms")
+        if problems:
+            raise RuntimeError("; ".join(problems))
 
     def _read(self) -> JointState:
         self._sync_read()
@@ -117,8 +155,8 @@ class DynamixelBackend(HardwareAdapter):
 
     def _send(self, cmd: JointCommand) -> None:
         p, v, kp, kd, t = self.config.to_motor(cmd.q, cmd.dq, cmd.kp, cmd.kd, cmd.tau_ff)
-        kp_reg = np.clip(np.round(kp / self.units.kp), 0, 65535).astype(int)
-        kd_reg = np.clip(np.round(kd / self.units.kd), 0, 65535).astype(int)
+        kp_reg = np.clip(np.round(kp / self.units.kp), 0, dxl.GAIN_MAX).astype(int)
+        kd_reg = np.clip(np.round(kd / self.units.kd), 0, dxl.GAIN_MAX).astype(int)
         gains = (tuple(kp_reg), tuple(kd_reg))
         if gains != self._gains:
             self._gain_write.clearParam()

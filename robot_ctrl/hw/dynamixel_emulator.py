@@ -14,7 +14,10 @@ period: servo i follows ``kp_i (goal_i − q_i) − kd_i dq_i`` with kp = P × k
 kd_unit (joint side through the gear ratio). Torque disabled: limp. A Bus Watchdog that expires
 (no packet for its time, wall clock) stops the servo: damping only (kp = 0), the register reads
 −1 until the host writes 0, as on X-series servos. ``temperature`` (°C, per servo) is what Present
-Temperature reports; tests raise it to exercise the safety layer. Every applied command is kept in
+Temperature reports; tests raise it to exercise the safety layer. ``hardware_error`` (per servo)
+is its Hardware Error Status: a servo with one set is limp and refuses torque, as after an
+overload shutdown. Gains beyond the register range (``GAIN_MAX``) are ignored, as a servo ignores
+an out-of-range write. Every applied command is kept in
 ``received`` (joint side, with the plant time).
 """
 
@@ -49,6 +52,7 @@ class DynamixelEmulator:
         self.watchdog = np.zeros(n, dtype=int)  # register value; −1 when it expired
         self.goal = np.zeros(n, dtype=np.int64)
         self.temperature = np.full(n, float(temperature))
+        self.hardware_error = np.zeros(n, dtype=int)  # Hardware Error Status, set by tests
         self.received: list[tuple[float, JointCommand]] = []
         self._lock = threading.Lock()
         self._state: JointState | None = None
@@ -142,9 +146,11 @@ class DynamixelEmulator:
 
     def _store(self, i: int, address: int, data: bytes) -> None:
         if address == dxl.TORQUE_ENABLE:
-            self.torque_enable[i] = data[0]
+            self.torque_enable[i] = data[0] if not self.hardware_error[i] else 0  # shut down until a reboot
         elif address == dxl.GAINS and len(data) == 6:
-            self.gains[i] = [int.from_bytes(data[k : k + 2], "little") for k in (0, 2, 4)]
+            gains = [int.from_bytes(data[k : k + 2], "little") for k in (0, 2, 4)]
+            if max(gains) <= dxl.GAIN_MAX:  # out of range: ignored, as a servo does
+                self.gains[i] = gains
         elif address == dxl.BUS_WATCHDOG:
             self.watchdog[i] = dxl.to_signed(data[0], 1)
         elif address == dxl.GOAL_POSITION and len(data) == 4:
@@ -153,6 +159,7 @@ class DynamixelEmulator:
     def _load(self, i: int, address: int, length: int) -> bytes:
         table = bytearray(256)
         table[dxl.TORQUE_ENABLE] = self.torque_enable[i]
+        table[dxl.HARDWARE_ERROR_STATUS] = self.hardware_error[i]
         table[dxl.GAINS : dxl.GAINS + 6] = b"".join(dxl.to_bytes(int(g), 2) for g in self.gains[i])
         table[dxl.BUS_WATCHDOG] = self.watchdog[i] & 0xFF
         table[dxl.GOAL_POSITION : dxl.GOAL_POSITION + 4] = dxl.to_bytes(int(self.goal[i]), 4)
@@ -172,6 +179,7 @@ class DynamixelEmulator:
 
     def _step(self) -> None:
         c = self.config
+        self.torque_enable[self.hardware_error != 0] = 0  # a hardware error shuts the torque off
         on = self.torque_enable.astype(float)
         stiff = on * (self.watchdog >= 0)  # an expired watchdog leaves damping only
         goal = self.goal * self.units.position

@@ -26,12 +26,23 @@ INST_SYNC_READ, INST_SYNC_WRITE = 0x82, 0x83
 BROADCAST = 0xFE
 
 TORQUE_ENABLE = 64
+HARDWARE_ERROR_STATUS = 70
 GAINS = 80  # D gain (2 bytes), I gain (2), P gain (2)
+GAIN_MAX = 16383  # the position gains' register range; a servo ignores a write beyond it
 BUS_WATCHDOG = 98
 GOAL_POSITION = 116
 PRESENT = 126  # current (2), velocity (4), position (4), … temperature at 146
 PRESENT_LENGTH = 21
 TEMPERATURE_OFFSET = 146 - PRESENT
+
+
+#: Hardware Error Status bits (X-series): any of them shuts the servo's torque off until a reboot.
+HARDWARE_ERRORS = {0: "input voltage", 2: "overheating", 3: "motor encoder", 4: "electrical shock", 5: "overload"}
+
+
+def hardware_errors(status: int) -> str:
+    """The names of the bits set in a Hardware Error Status byte."""
+    return ", ".join(name for bit, name in HARDWARE_ERRORS.items() if status >> bit & 1) or f"0x{status:02x}"
 
 
 def _crc_table() -> list[int]:

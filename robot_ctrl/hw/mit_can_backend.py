@@ -16,7 +16,9 @@ Replies (the bus config's ``reply_timeout_s`` and ``max_missed_replies``): each 
 ``reply_timeout_s`` for one reply per motor. A motor that misses one keeps its last values
 (``missed`` counts its misses in a row, ``missing_replies`` all of them); one that misses more than
 ``max_missed_replies`` in a row raises, and so does ``activate`` if a motor stays silent through
-as many enable frames (after disabling them all again). The state's time advances when any motor answered; when none did it
+as many enable frames (after disabling them all again). Frames still queued when a tick's commands
+go out came after their own tick's wait: they are dropped (``late_replies``), not read as this
+tick's. The state's time advances when any motor answered; when none did it
 stays, and the safety layer sees a stale state.
 """
 
@@ -58,6 +60,8 @@ class MitCanBackend(HardwareAdapter):
         self._time = None
         self._body: JointState | None = None
         self.missing_replies = 0
+        self.late_replies = 0  # frames dropped because their tick's wait had ended
+        self.error_frames = 0  # CAN error frames received
         self.missed = np.zeros(self.nj, dtype=int)  # replies missed in a row, per motor
 
     # Lifecycle hooks ------------------------------------------------------------------------------
@@ -113,6 +117,11 @@ class MitCanBackend(HardwareAdapter):
         return JointState(t=self._time if self._time is not None else 0.0, q=q, dq=dq, tau=tau, **fields)
 
     def _send_commands(self, cmd: JointCommand) -> None:
+        self._drain()
+        off = [name for name, bus in self._buses.items() if bus.state is can.BusState.ERROR]
+        if off:
+            raise RuntimeError(f"CAN bus {', '.join(off)} is bus-off (error state): check wiring and termination; "
+                               "with restart-ms set the interface restarts itself")
         p, v, kp, kd, t = self.config.to_motor(cmd.q, cmd.dq, cmd.kp, cmd.kd, cmd.tau_ff)
         for i, m in enumerate(self.config.motors):
             data = pack_command(p[i], v[i], kp[i], kd[i], t[i], self.ranges[i])
@@ -122,6 +131,13 @@ class MitCanBackend(HardwareAdapter):
         lost = self.missed > self.config.max_missed_replies
         if lost.any():
             raise RuntimeError(f"{self._joints(lost)} missed more than {self.config.max_missed_replies} replies in a row")
+
+    def _drain(self) -> None:
+        """Drop the frames that came after the last wait ended: read as this tick's replies, they
+        would keep a motor a tick behind for good (``late_replies`` counts them)."""
+        for bus in self._buses.values():
+            while bus.recv(timeout=0.0) is not None:
+                self.late_replies += 1
 
     def _joints(self, mask: np.ndarray) -> str:
         return ", ".join(self.config.motors[i].joint for i in np.flatnonzero(mask))
@@ -146,6 +162,9 @@ class MitCanBackend(HardwareAdapter):
                 if msg is None:
                     break
                 bus_deadline = min(deadline, self.clock() + REPLY_GAP)
+                if msg.is_error_frame:
+                    self.error_frames += 1
+                    continue
                 if len(msg.data) != 6:
                     continue
                 i = self._index.get((name, msg.data[0]))
