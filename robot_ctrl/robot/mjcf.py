@@ -94,8 +94,10 @@ def cached_scene_mjcf(config: RobotConfig, files: RobotFiles, kp: np.ndarray, kd
     if not prefixes or len(set(prefixes)) != len(prefixes):
         raise ValueError(f"prefixes {prefixes} must be non-empty and distinct")
     key = hashlib.sha256()
+    # The scene names its mesh files by absolute path: where the description lies is part of the key,
+    # so two installs (two virtual environments) never share a scene that points into the other.
     for part in (__version__, mujoco.__version__, example_robot_data_version(), repr(config), repr(prefixes),
-                 files.urdf.read_bytes(), files.srdf.read_bytes() if files.srdf else b"",
+                 str(files.urdf.resolve()), files.urdf.read_bytes(), files.srdf.read_bytes() if files.srdf else b"",
                  SCENE.read_bytes(), kp.tobytes(), kd.tobytes(), effort.tobytes(), armature.tobytes()):
         key.update(part if isinstance(part, bytes) else part.encode())
     name = config.name if len(prefixes) == 1 else f"{config.name}x{len(prefixes)}"
