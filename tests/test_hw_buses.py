@@ -372,6 +372,7 @@ def test_dynamixel_hardware_errors_gain_range_and_a_soft_torque_on(talos):
         for _ in range(10):
             state = tick(hw, clock, hold(talos, state))
         hw.backend._send(hold(talos, state, kp=1e6 * np.ones(talos.nj)))  # beyond the register range
+        hw.read()  # a Sync Write has no reply: this read's round trip orders it after the gains
         assert emulator.gains[:, 2].max() == dxl.GAIN_MAX  # clipped, so the servo took it
         emulator.hardware_error[knee] = 0x04  # overheating during the run
         with pytest.raises(HardwareFault, match="leg_left_4_joint: hardware error \\(overheating\\)"):
