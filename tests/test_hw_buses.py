@@ -74,13 +74,18 @@ def test_bus_config_errors_name_the_joint_and_field(talos, tmp_path):
         load_bus_config(bad, talos.joint_names)
 
 
+def fresh_mit_config(talos, **config_changes):
+    """The MIT-CAN bus config on virtual channels of their own (tests never hear each other)."""
+    config = load_bus_config("talos_mit_can", talos.joint_names)
+    tag = uuid.uuid4().hex[:8]
+    return dataclasses.replace(config, buses={k: dict(v, channel=f"{v['channel']}_{tag}") for k, v in config.buses.items()},
+                               **config_changes)
+
+
 def configured_mit(talos, **config_changes):
     """The safety layer over the MIT-CAN backend (configured, not active), the emulator on fresh
     virtual channels, a fake wall clock."""
-    config = load_bus_config("talos_mit_can", talos.joint_names)
-    tag = uuid.uuid4().hex[:8]
-    config = dataclasses.replace(config, buses={k: dict(v, channel=f"{v['channel']}_{tag}") for k, v in config.buses.items()},
-                                 **config_changes)
+    config = fresh_mit_config(talos, **config_changes)
     emulator = MitCanEmulator(config, MujocoBackend(talos))
     emulator.start()
     clock = FakeClock()
@@ -271,7 +276,8 @@ def test_estop_latches_until_reset(talos, mit):
     assert np.all(emulator.received[-1][1].kp <= 0.06 * talos.kp + 3.0)  # soft start again
 
 
-def test_temperature_derates_then_faults(talos):
+def configured_dynamixel(talos):
+    """The safety layer over the Dynamixel backend (configured, not active), the emulator on a pty, a fake clock."""
     config = load_bus_config("talos_dynamixel", talos.joint_names)
     emulator = DynamixelEmulator(config, MujocoBackend(talos))
     emulator.start()
@@ -279,8 +285,13 @@ def test_temperature_derates_then_faults(talos):
     clock = FakeClock()
     hw = SafetyLayer(DynamixelBackend(config, talos.kd, body_sensors=emulator.body_state),
                      SafetyLimits.from_robot(talos, soft_start=0.05), clock=clock)
+    hw.configure()
+    return hw, emulator, clock
+
+
+def test_temperature_derates_then_faults(talos):
+    hw, emulator, clock = configured_dynamixel(talos)
     try:
-        hw.configure()
         hw.activate()
         state = hw.read()
         for _ in range(20):
@@ -322,9 +333,7 @@ def test_a_walk_over_a_bus_that_loses_one_reply_in_a_hundred(talos):
     from robot_ctrl.control.path_follower import WalkGoal
     from robot_ctrl.scenarios.walk import run_walk
 
-    config = load_bus_config("talos_mit_can", talos.joint_names)
-    tag = uuid.uuid4().hex[:8]
-    config = dataclasses.replace(config, buses={k: dict(v, channel=f"{v['channel']}_{tag}") for k, v in config.buses.items()})
+    config = fresh_mit_config(talos)
     emulator = MitCanEmulator(config, MujocoBackend(talos))
     emulator.drop_probability = 0.01
     emulator.start()
@@ -339,18 +348,6 @@ def test_a_walk_over_a_bus_that_loses_one_reply_in_a_hundred(talos):
     ticks = report["time_s"] / DT
     assert 0.005 < backend.missing_replies / (ticks * talos.nj) < 0.015  # about 1 % were lost
     assert backend.missed.max() <= config.max_missed_replies
-
-
-def configured_dynamixel(talos):
-    config = load_bus_config("talos_dynamixel", talos.joint_names)
-    emulator = DynamixelEmulator(config, MujocoBackend(talos))
-    emulator.start()
-    config = dataclasses.replace(config, buses={"port": dict(config.buses["port"], device=emulator.port_name)})
-    clock = FakeClock()
-    hw = SafetyLayer(DynamixelBackend(config, talos.kd, body_sensors=emulator.body_state),
-                     SafetyLimits.from_robot(talos, soft_start=0.05), clock=clock)
-    hw.configure()
-    return hw, emulator, clock
 
 
 def test_dynamixel_hardware_errors_gain_range_and_a_soft_torque_on(talos):

@@ -1,7 +1,8 @@
 """StartSequence: the first motion of a real robot, from wherever it is to its start posture.
 
 1. **Check** the measured posture before anything moves: every joint inside its position limits
-   (with ``limit_tolerance``) and within ``max_start_error`` of the start posture. A joint outside
+   (with ``limit_tolerance``) and within ``max_start_error`` of the target, which must itself lie
+   inside the limits. A joint outside
    usually means a wrong zero offset or direction sign in the bus mapping, or a robot not hanging
    as expected; :class:`StartRefused` names the joints.
 2. **Move** every joint from its measured angle to the start posture on a minimum-jerk profile
@@ -91,6 +92,10 @@ class StartSequence:
 
     def _check(self, q: np.ndarray) -> None:
         r, p = self.robot, self.params
+        beyond = (self.target < r.lower) | (self.target > r.upper)
+        if beyond.any():
+            raise StartRefused("; ".join(f"{r.joint_names[i]} would go to {self.target[i]:.3f} rad, outside its "
+                                         f"limits [{r.lower[i]:.3f}, {r.upper[i]:.3f}]" for i in np.flatnonzero(beyond)))
         outside = (q < r.lower - p.limit_tolerance) | (q > r.upper + p.limit_tolerance)
         if outside.any():
             raise StartRefused(f"{self._names(outside)} outside the position limits: check the zero offsets and "

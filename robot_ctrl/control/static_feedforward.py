@@ -23,6 +23,9 @@ import numpy as np
 import pinocchio as pin
 from scipy.linalg import lapack
 
+from robot_ctrl.geometry import SIDES
+from robot_ctrl.robot.model import RobotModel, configuration
+
 _posv = lapack.dposv
 
 
@@ -66,3 +69,16 @@ def weight_shares(com_xy: np.ndarray, left_xy: np.ndarray, right_xy: np.ndarray,
     s = float(np.dot(com_xy - right_xy, axis) / np.dot(axis, axis))
     s = min(max(s, floor), 1.0 - floor)
     return s, 1.0 - s
+
+
+def upper_body_gravity(robot: RobotModel, q: np.ndarray) -> np.ndarray:
+    """Gravity torques of the joints at the posture ``q`` (joint order, base upright), zero for the
+    legs: whether the robot hangs in a gantry or stands changes the legs' load, not the upper body's."""
+    model = robot.pin
+    tau = pin.computeGeneralizedGravity(model, model.createData(), configuration(
+        robot, np.zeros(3), np.array([0.0, 0.0, 0.0, 1.0]), q))[robot.v_index]
+    feet = [model.frames[robot.frame_ids[f"{side}_foot"]].parentJoint for side in SIDES]
+    legs = [i for i, name in enumerate(robot.joint_names)
+            if any(model.getJointId(name) in model.supports[foot] for foot in feet)]
+    tau[legs] = 0.0
+    return tau

@@ -193,7 +193,7 @@ class SafetyLayer(HardwareAdapter):
             if self._state is S.ACTIVE and self.backend.state is S.ACTIVE:
                 with self._lock:
                     self.mode = "off"
-                    damping = self._bounded(self._damping_command())
+                    damping = self._damping_command()
                 self.backend.write(damping)  # soft first, in case a drive misses the disable
                 self.backend.deactivate()
         except Exception:
@@ -322,11 +322,11 @@ class SafetyLayer(HardwareAdapter):
             command.validate(self.nj)
         except CommandError as exc:
             self._intervene("rejected_command", str(exc))
-            return self._bounded(self._last_sent if self._last_sent is not None else self._damping_command())
+            return self._bounded(self._last_sent) if self._last_sent is not None else self._damping_command()
         stale = (self._fresh_at is not None
                  and self._last_write - self._fresh_at > self.limits.stale_periods * self.limits.control_dt)
         if stale or self._last_good is None:
-            return self._bounded(self._damping_command())
+            return self._damping_command()
         if self.mode == "damping":
             logger.info("resuming from damping mode with a soft start")
             self._begin_soft_start()
@@ -334,16 +334,17 @@ class SafetyLayer(HardwareAdapter):
         return self._filter(command)
 
     def _damping_command(self, state: JointState | None = None) -> JointCommand:
+        """kp = 0, τ_ff = 0, kd = ``kd_damping`` at the measured posture, within the torque bound."""
         state = state or self._last_good
         q = state.q.copy() if state is not None else (self.limits.lower + self.limits.upper) / 2
         zero = np.zeros(self.nj)
-        return JointCommand(q=np.clip(q, self.limits.lower, self.limits.upper), dq=zero, kp=zero.copy(),
-                            kd=self.limits.kd_damping.copy(), tau_ff=zero.copy())
+        return self._bounded(JointCommand(q=np.clip(q, self.limits.lower, self.limits.upper), dq=zero,
+                                          kp=zero.copy(), kd=self.limits.kd_damping.copy(), tau_ff=zero.copy()))
 
     def _enter_damping(self, state: JointState | None) -> None:
         self.mode = "damping"
         self._epoch += 1
-        self._pending = self._last_sent = self._bounded(self._damping_command(state))
+        self._pending = self._last_sent = self._damping_command(state)
 
     def _send_pending(self) -> None:
         with self._lock:
@@ -356,7 +357,7 @@ class SafetyLayer(HardwareAdapter):
             if self._state is S.ESTOP:
                 command = None
             elif self.mode == "damping":
-                command = self._bounded(self._damping_command())
+                command = self._damping_command()
             else:
                 return
         if command is None:

@@ -10,16 +10,15 @@ from __future__ import annotations
 from typing import Callable
 
 import numpy as np
-import pinocchio as pin
 
 from robot_ctrl.control.loop import ControlLoop
 from robot_ctrl.control.pacer import Pacer
 from robot_ctrl.control.start_sequence import StartParams, StartRefused, StartSequence, TrackingFault
+from robot_ctrl.control.static_feedforward import upper_body_gravity
 from robot_ctrl.eval.recorders import HeldFor, TimeLimit
-from robot_ctrl.geometry import SIDES
 from robot_ctrl.hw.adapter import HardwareFault
 from robot_ctrl.hw.safety import SafetyLayer
-from robot_ctrl.robot.model import RobotModel, configuration
+from robot_ctrl.robot.model import RobotModel
 
 HOLD_S = 1.0  # [s] the posture is held after a move before the command ends
 
@@ -75,7 +74,7 @@ def move(robot: RobotModel, hw: SafetyLayer, target: Callable[[np.ndarray], np.n
     state = hw.read()
     try:
         goal = np.array(robot.config.half_sitting) if target is None else target(np.asarray(state.q, dtype=float))
-        sequence = StartSequence(robot, state, goal, params, gravity_feedforward(robot, goal))
+        sequence = StartSequence(robot, state, goal, params, upper_body_gravity(robot, goal))
         done = HeldFor(lambda: sequence.done, HOLD_S, "held the posture")
         loop = ControlLoop([hw], [sequence], params.control_dt, stops=[
             done, TimeLimit(params.duration + HOLD_S + 1.0, "did not settle")], pacer=pacer)
@@ -90,36 +89,15 @@ def move(robot: RobotModel, hw: SafetyLayer, target: Callable[[np.ndarray], np.n
     return report | ({"timing": pacer.report()} if pacer is not None else {})
 
 
-def gravity_feedforward(robot: RobotModel, q: np.ndarray) -> np.ndarray:
-    """Gravity torques of the joints at the posture ``q`` (joint order), zero for the legs: whether
-    the robot hangs in a gantry or stands changes the legs' load, not the upper body's."""
-    model = robot.pin
-    tau = pin.computeGeneralizedGravity(model, model.createData(), configuration(
-        robot, np.zeros(3), np.array([0.0, 0.0, 0.0, 1.0]), q))[robot.v_index]
-    feet = [model.frames[robot.frame_ids[f"{side}_foot"]].parentJoint for side in SIDES]
-    legs = [i for i, name in enumerate(robot.joint_names)
-            if any(model.getJointId(name) in model.supports[foot] for foot in feet)]
-    tau[legs] = 0.0
-    return tau
-
-
 def jog_target(robot: RobotModel, joint: str, delta: float) -> Callable[[np.ndarray], np.ndarray]:
-    """The measured posture with ``joint`` moved by ``delta`` [rad]; refused outside its limits."""
+    """The measured posture (clipped into the limits, as every reference is) with ``joint`` moved by
+    ``delta`` [rad]; the start sequence refuses a target outside the limits."""
     if joint not in robot.joint_names:
         raise ValueError(f"jog: {joint!r} is not a joint of {robot.name}")
     if not (np.isfinite(delta) and abs(delta) <= np.pi):
         raise ValueError(f"jog: DELTA = {delta} rad is outside the allowed range [-3.1416, 3.1416]")
-    i = robot.joint_names.index(joint)
-
-    def target(q: np.ndarray) -> np.ndarray:
-        goal = q.copy()
-        goal[i] += delta
-        if not robot.lower[i] <= goal[i] <= robot.upper[i]:
-            raise StartRefused(f"{joint} would go to {goal[i]:.3f} rad, outside its limits "
-                               f"[{robot.lower[i]:.3f}, {robot.upper[i]:.3f}]")
-        return goal
-
-    return target
+    step = np.where(np.array(robot.joint_names) == joint, delta, 0.0)
+    return lambda q: np.clip(q, robot.lower, robot.upper) + step
 
 
 def zero(hw: SafetyLayer, joint: str) -> None:
