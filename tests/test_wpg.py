@@ -137,6 +137,30 @@ def test_stop_at_puts_the_feet_on_the_goal():
         np.testing.assert_allclose(gen.feet[side].xy, goal[side].xy, atol=1e-9)
 
 
+def test_a_shifted_plan_is_the_same_plan_moved():
+    """``shift`` mid-swing moves the CoM, the feet and the swing under way, and the MPC then plans
+    the same motion from there (its problem is translation invariant)."""
+    plans = [standing_generator(), standing_generator()]
+    for gen in plans:
+        gen.set_velocity(0.2, 0.0, 0.1)
+        for _ in range(13):  # into a single support
+            gen.update()
+    moved, kept = plans
+    assert moved.phase == "single"
+    delta = np.array([0.004, -0.003])
+    moved.shift(delta)
+    for _ in range(7):  # across a landing
+        for gen in plans:
+            gen.update()
+        for tau in (0.0, 0.05):
+            a, b = kept.sample(tau), moved.sample(tau)
+            np.testing.assert_allclose(b.com, a.com + delta, atol=1e-7)
+            np.testing.assert_allclose(b.com_velocity, a.com_velocity, atol=1e-7)
+            for side in ("left", "right"):
+                np.testing.assert_allclose(b.foot_position[side][:2], a.foot_position[side][:2] + delta, atol=1e-7)
+                np.testing.assert_allclose(b.foot_position[side][2], a.foot_position[side][2], atol=1e-12)
+
+
 @pytest.mark.parametrize("field,value", [("horizon", 1), ("single_support", 0.75), ("zmp_margin", 0.1),
                                          ("com_height", float("nan"))])
 def test_bad_parameters_name_the_field(field, value):

@@ -29,7 +29,7 @@ from robot_ctrl.control.stabilizer import DcmStabilizer
 from robot_ctrl.control.static_feedforward import static_torques, weight_shares
 from robot_ctrl.dynfilter.dynamic_filter import DynamicFilter
 from robot_ctrl.dynfilter.filter_worker import DynamicFilterWorker
-from robot_ctrl.geometry import SIDES, yaw_of
+from robot_ctrl.geometry import SIDES, other, yaw_of
 from robot_ctrl.hw.types import JointCommand, JointState
 from robot_ctrl.modes import FilterMode
 from robot_ctrl.robot.model import RobotModel, configuration
@@ -39,6 +39,7 @@ from robot_ctrl.wpg.generator import WalkingPatternGenerator, WalkReference
 from robot_ctrl.wpg.params import WalkParams
 
 MAX_BALANCE_SHIFT = 0.04  # [m] of :meth:`WalkingController.shift_balance`, well inside a sole
+MAX_FOOT_FOLLOW = 0.05  # [m] a larger gap between the planned and measured stance foot is not followed
 
 
 def sole_footstep(side: str, pose: pin.SE3) -> Footstep:
@@ -109,6 +110,7 @@ class WalkingController:
         self._sample_hooks: list[Callable[[PlanSample], None]] = []
         self._hands: dict[str, tuple[np.ndarray, np.ndarray] | None] = {s: None for s in SIDES}
         self._balance_shift = np.zeros(2)
+        self.plan_shift = np.zeros(2)  # [m] how far the plan has followed the real feet so far
 
     # Commands ---------------------------------------------------------------------------------
     def on_sample(self, hook: Callable[[PlanSample], None]) -> None:
@@ -196,6 +198,7 @@ class WalkingController:
         :meth:`step` calls it when the loop did not."""
         t = self.k * self.dt
         if self.sample_due:
+            self._follow_the_feet()
             if self._sample_hooks:
                 sample = self.plan_sample()
                 for hook in self._sample_hooks:
@@ -227,6 +230,24 @@ class WalkingController:
         tau_ff, _ = static_torques(self.robot.pin, self._statics, q_ahead, frames, shares,
                                    np.array([*ref.com_acceleration, 0.0]))
         self._prepared = (ref, com, com_velocity, tau_ff)
+
+    def _follow_the_feet(self) -> None:
+        """Move the plan (and the IK's reference configuration with it) to where the stance foot
+        really is, when it alone carries the robot: without it the small error of every landing adds
+        up over a long walk, the measured CoM runs ahead of a plan whose feet are elsewhere and the
+        stabilizer's bounded correction ends by not being enough (a 10 m walk fell). The joints'
+        references do not change; the plan's future steps start from the real feet."""
+        est, wpg = self.estimate, self.wpg
+        if est is None or wpg.phase != "single" or not est.in_contact[wpg.stance] or est.in_contact[other(wpg.stance)]:
+            return
+        planned = wpg.feet[wpg.stance]
+        delta = est.soles[wpg.stance].translation[:2] - (planned.x, planned.y)
+        if np.linalg.norm(delta) <= MAX_FOOT_FOLLOW:
+            wpg.shift(delta)
+            q = self.ik.q.copy()
+            q[:2] += delta
+            self.ik.set_configuration(q)
+            self.plan_shift += delta
 
     def step(self, state: JointState) -> JointCommand:
         """The joint command for the tick from the measured ``state``: the balance stabilizer's

@@ -35,6 +35,10 @@ from robot_ctrl.wpg.mpc import MpcInfeasible, MpcProblem, MpcSolution, Reach, Sa
 from robot_ctrl.wpg.params import WalkParams
 from robot_ctrl.wpg.swing import SwingTrajectory
 
+#: [m] a foot this close to its stop footstep is there: the plan follows the real feet (``shift``),
+#: which land within millimetres of where they were sent, never exactly.
+STOP_TOLERANCE = 0.005
+
 
 @dataclass(frozen=True)
 class WalkReference:
@@ -233,7 +237,7 @@ class WalkingPatternGenerator:
 
     def _at_goal(self, foot: FootRef) -> bool:
         goal = self.stop_feet[foot.side]
-        return (not foot.S.any() and np.allclose(foot.offset, goal.xy, atol=1e-6)
+        return (not foot.S.any() and np.allclose(foot.offset, goal.xy, atol=STOP_TOLERANCE)
                 and abs(wrap_angle(foot.yaw - goal.yaw)) < 1e-6)
 
     def problem(self) -> MpcProblem:
@@ -288,6 +292,20 @@ class WalkingPatternGenerator:
         w, (lo, hi) = self.p.step_width, self.p.reach_y
         y = (w + lo, w + hi) if side == "left" else (-w - hi, -w - lo)
         return (*self.p.reach_x, *y)
+
+    def shift(self, delta: np.ndarray) -> None:
+        """Translate the plan by ``delta`` (2,) [m] (world frame): its CoM state, its feet and the
+        swing under way, so that it continues from where the feet really are. Call it between
+        samples (before :meth:`update`); where the feet must end (``stop_at``) stays."""
+        dx, dy = (float(v) for v in delta)
+        self.com_x[0] += dx
+        self.com_y[0] += dy
+        self.feet = {s: Footstep(f.side, f.x + dx, f.y + dy, f.yaw) for s, f in self.feet.items()}
+        if self.swing is not None:
+            self.swing.shift(delta)
+        if self.settle_from is not None:
+            f = self.settle_from
+            self.settle_from = FootRef(f.side, f.yaw, f.offset + (dx, dy), f.S)
 
     # Stepping ---------------------------------------------------------------------------------
     def update(self) -> MpcSolution:

@@ -55,6 +55,14 @@ class SwingTrajectory:
         self._t0 = t
         self.landing = landing
 
+    def shift(self, delta: np.ndarray) -> None:
+        """Translate the whole trajectory by ``delta`` (2,) [m] in the plane."""
+        dx, dy = (float(v) for v in delta)
+        self._c = self._c.copy()
+        self._c[0, :2] += (dx, dy)
+        self.lift = Footstep(self.lift.side, self.lift.x + dx, self.lift.y + dy, self.lift.yaw)
+        self.landing = Footstep(self.landing.side, self.landing.x + dx, self.landing.y + dy, self.landing.yaw)
+
     def at(self, t: float) -> tuple[np.ndarray, float, np.ndarray, float]:
         """``(position (3,), yaw, linear velocity (3,), yaw rate)`` at ``t`` seconds into the swing."""
         t = min(max(t, 0.0), self.duration)
