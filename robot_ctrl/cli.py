@@ -10,7 +10,7 @@ import sys
 import threading
 from pathlib import Path
 
-from robot_ctrl.modes import ArmMotion, FilterMode, HardwareKind
+from robot_ctrl.modes import ArmMotion, BaseState, FilterMode, HardwareKind
 from robot_ctrl.robot.config import ConfigError, available_robots
 
 #: Settings' names in error messages, and the options that set them.
@@ -100,7 +100,7 @@ def _walk(args: argparse.Namespace) -> int:
         raise ConfigError(f"walk: --dynfilter-passes {args.dynfilter_passes} is outside the allowed range [1, 10]")
     settings = WalkSettings(stabilize=not args.no_stabilizer, arms=ArmMotion(args.arms),
                             dynfilter=FilterMode(args.dynfilter), dynfilter_passes=args.dynfilter_passes,
-                            dynfilter_worker=not args.dynfilter_inline)
+                            dynfilter_worker=not args.dynfilter_inline, base_state=BaseState(args.base_state))
     robot, disturbances, hardware = _simulation(args)
     with hardware as hw:
         report = run_walk(robot, hw, goal, settings, out_dir=args.out, log=_log, progress=not args.quiet,
@@ -115,7 +115,7 @@ def _drawer(args: argparse.Namespace) -> int:
     from robot_ctrl.scenarios.walk_reach_synthesis import load_demonstrations, load_primitives
 
     jumps = tuple(_goal_jump(j) for j in args.goal_jump)
-    task = DrawerTask(args.distance, args.slot, jumps, FilterMode(args.dynfilter))
+    task = DrawerTask(args.distance, args.slot, jumps, FilterMode(args.dynfilter), base_state=BaseState(args.base_state))
     _disturbances(args)
     robot = load_robot(args.robot)
     try:  # before anything is learned or started
@@ -527,6 +527,7 @@ def _add_walk(sub, sim) -> None:
     p.add_argument("--dynfilter-inline", action="store_true",
                    help="run the filter in the control loop, its correction applied in the sample it was "
                         "computed for (default: in a worker process on another core, one 0.1 s sample behind)")
+    _base_state_arg(p)
     p.add_argument("--out", type=Path, help="write DIR/report.json and DIR/timeseries.npz")
     p.set_defaults(run=_walk)
 
@@ -543,8 +544,15 @@ def _add_drawer(sub, sim) -> None:
                    help="at TIME [s] the cabinet moves to DISTANCE [m]; the synthesis replans (repeatable)")
     p.add_argument("--dynfilter", choices=[m.value for m in FilterMode], default=FilterMode.FULL.value,
                    help="dynamic filter: off, legs only, or full body (default)")
+    _base_state_arg(p)
     p.add_argument("--out", type=Path, help="write DIR/report.json, DIR/timeseries.npz and DIR/report.html")
     p.set_defaults(run=_drawer)
+
+
+def _base_state_arg(p) -> None:
+    p.add_argument("--base-state", choices=[m.value for m in BaseState], default=BaseState.SIMULATED.value,
+                   help="the controller's base pose and velocity: the simulator's (default), or estimated from the "
+                        "IMU, the encoders and the foot force sensors as on a real robot (control/base_estimator.py)")
 
 
 def _graph_args(p) -> None:

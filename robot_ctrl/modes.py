@@ -33,6 +33,13 @@ class ArmMotion(_Mode):
     SWING = "swing"
 
 
+class BaseState(_Mode):
+    """Where the controller's base pose and velocity come from."""
+
+    SIMULATED = "simulated"  # the simulator's ground truth
+    ESTIMATED = "estimated"  # IMU + leg kinematics + foot contacts (``control/base_estimator.py``)
+
+
 class HardwareKind(_Mode):
     """The backends a scenario runs on (``robot_ctrl.hw.hardware.open_hardware``)."""
 
@@ -48,4 +55,4 @@ class HardwareKind(_Mode):
         return self in (HardwareKind.MIT_CAN, HardwareKind.DYNAMIXEL)
 
 
-_OPTION = {FilterMode: "dynfilter", ArmMotion: "arms", HardwareKind: "hw"}  # the option each is chosen by
+_OPTION = {FilterMode: "dynfilter", ArmMotion: "arms", BaseState: "base-state", HardwareKind: "hw"}  # the option each is chosen by

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from typing import Callable, Sequence
 
+import numpy as np
 from tqdm import tqdm
 
 from robot_ctrl.eval.run_metrics import RunMetrics
@@ -89,3 +90,28 @@ class ProgressBar:
 
     def close(self) -> None:
         self.bar.close()
+
+
+class BaseEstimateError:
+    """How far the base a controller saw (``seen()``, e.g. an ``EstimatedBaseController``'s) was
+    from the measured one (the simulator's), tick by tick: horizontal position and velocity."""
+
+    def __init__(self, seen: Callable[[], object]):
+        self.seen = seen
+        self.position: list[float] = []
+        self.velocity: list[float] = []
+
+    def on_command(self, tick) -> None:
+        seen, state = self.seen(), tick.states[0]
+        self.position.append(float(np.linalg.norm(seen.base_pos[:2] - state.base_pos[:2])))
+        self.velocity.append(float(np.linalg.norm(seen.base_linvel[:2] - state.base_linvel[:2])))
+
+    def on_state(self, tick) -> None:
+        pass
+
+    def report(self) -> dict:
+        """Horizontal errors against the simulator: position max and final [m], velocity RMS and max [m/s]."""
+        v = np.array(self.velocity)
+        return {"position_error_max_m": round(max(self.position), 4), "position_error_final_m": round(self.position[-1], 4),
+                "velocity_error_rms_mps": round(float(np.sqrt(np.mean(v**2))), 4),
+                "velocity_error_max_mps": round(float(v.max()), 4)}

@@ -25,8 +25,9 @@ from robot_ctrl.geometry import GRAVITY, base_pose_xy_yaw
 from robot_ctrl.geometry.drawer import SLOTS, DrawerGeometry
 from robot_ctrl.hw.disturbances import Disturbances
 from robot_ctrl.hw.safety import SafetyLayer
-from robot_ctrl.modes import FilterMode
+from robot_ctrl.modes import BaseState, FilterMode
 from robot_ctrl.robot.model import RobotModel
+from robot_ctrl.scenarios.base_view import seeing_base
 from robot_ctrl.sot.whole_body_ik import TRUNK_POSTURE_FACTOR
 from robot_ctrl.synthesis.primitives import WalkReachPrimitives
 from robot_ctrl.synthesis.synthesizer import GoalJump
@@ -43,6 +44,7 @@ class DrawerTask:
     jumps: tuple[GoalJump, ...] = ()
     dynfilter: FilterMode = FilterMode.FULL
     control_dt: float = 0.005  # [s]
+    base_state: BaseState = BaseState.SIMULATED  # where the controller's base pose and velocity come from
 
     def check(self, comfort: float, shortest: float) -> None:
         """Raise ValueError naming the setting and its allowed range."""
@@ -72,8 +74,9 @@ def run_drawer(robot: RobotModel, hw: SafetyLayer, primitives: WalkReachPrimitiv
     state = hw.read()
     if state.base_pos is None or state.foot_wrench is None:
         raise ValueError("the drawer task needs a backend that reports the base pose and the foot wrenches")
-    controller = WalkingController(robot, state, None, dt, dynfilter=task.dynfilter, dynfilter_worker=True,
-                                   trunk_weight=TRUNK_POSTURE_FACTOR, balance_with_arms=False)
+    controller, view = seeing_base(task.base_state, robot, state, lambda seen: WalkingController(
+        robot, seen, None, dt, dynfilter=task.dynfilter, dynfilter_worker=True, trunk_weight=TRUNK_POSTURE_FACTOR,
+        balance_with_arms=False))
     start = base_pose_xy_yaw(state.base_pos, state.base_quat_xyzw)
     targets = DrawerTargets(start, float(state.base_pos[2]), task.distance, task.slot, task.jumps, geometry)
     commander = WalkReachCommander(controller, primitives, targets, log)
@@ -86,8 +89,8 @@ def run_drawer(robot: RobotModel, hw: SafetyLayer, primitives: WalkReachPrimitiv
                    STAND_AFTER, "the task ended")
     limit = 8.0 * max([task.distance] + [j.distance for j in task.jumps]) + 15.0
     bar = ProgressBar(limit / 2, progress)
-    loop = ControlLoop([hw], [controller], dt, commanders=[commander],
-                       recorders=[MetricsRecorder([metrics]), walk, drawer, bar],
+    loop = ControlLoop([hw], [view.stepped], dt, commanders=[commander],
+                       recorders=[MetricsRecorder([metrics]), walk, drawer, bar, *view.recorders],
                        stops=[Fell([metrics]), done, TimeLimit(limit, "the task did not end")])
     try:
         result = loop.run([state])
@@ -100,7 +103,7 @@ def run_drawer(robot: RobotModel, hw: SafetyLayer, primitives: WalkReachPrimitiv
                                  "dynfilter": task.dynfilter.value} | drawer.report(
         metrics.fell, geometry, task.slot, primitives.comfort_distance) | dict(
         zmp_in_support_ratio=walk.zmp_in_support_ratio, footsteps=walk.footsteps, **walk_figures,
-        dynfilter_fallbacks=controller.filter_fallbacks, safety=hw.report(), disturbances=disturbances.to_dict(),
+        dynfilter_fallbacks=controller.filter_fallbacks, **view.report(), safety=hw.report(), disturbances=disturbances.to_dict(),
         rtf=round(result.rtf, 3), control_rate_hz=round(1.0 / dt, 3))
     report["success"] = report["success"] and done.held(result.states[0].t) >= STAND_AFTER
     log(f"success: {str(report['success']).lower()}  fell: {str(report['fell']).lower()}  steps "

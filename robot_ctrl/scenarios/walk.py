@@ -24,8 +24,9 @@ from robot_ctrl.eval.walk_recorder import WalkRecorder
 from robot_ctrl.geometry import GRAVITY, base_pose_xy_yaw
 from robot_ctrl.hw.disturbances import Disturbances
 from robot_ctrl.hw.safety import SafetyLayer
-from robot_ctrl.modes import ArmMotion, FilterMode
+from robot_ctrl.modes import ArmMotion, BaseState, FilterMode
 from robot_ctrl.robot.model import RobotModel
+from robot_ctrl.scenarios.base_view import seeing_base
 
 STAND_AFTER = 2.0  # [s] standing after the stop
 
@@ -39,6 +40,7 @@ class WalkSettings:
     dynfilter_worker: bool = True  # the filter in a worker process, one WPG sample behind
     control_dt: float = 0.005  # [s]
     grf_limit_ratio: float = GRF_LIMIT_RATIO
+    base_state: BaseState = BaseState.SIMULATED  # where the controller's base pose and velocity come from
 
 
 def run_walk(robot: RobotModel, hw: SafetyLayer, goal: WalkGoal, settings: WalkSettings = WalkSettings(),
@@ -52,8 +54,9 @@ def run_walk(robot: RobotModel, hw: SafetyLayer, goal: WalkGoal, settings: WalkS
     state = hw.read()
     if state.base_pos is None or state.foot_wrench is None:
         raise ValueError("walking needs a backend that reports the base pose and the foot wrenches")
-    controller = WalkingController(robot, state, None, dt, s.stabilize, arm_motion(s.arms, robot), s.dynfilter,
-                                   s.dynfilter_passes, s.dynfilter_worker)
+    controller, view = seeing_base(s.base_state, robot, state, lambda seen: WalkingController(
+        robot, seen, None, dt, s.stabilize, arm_motion(s.arms, robot), s.dynfilter, s.dynfilter_passes,
+        s.dynfilter_worker))
     start = base_pose_xy_yaw(state.base_pos, state.base_quat_xyzw)
     path = PathCommander(controller, goal, start, log)
     metrics = RunMetrics(robot.joint_names, robot.effort, FallCriterion(float(state.base_pos[2])))
@@ -62,7 +65,7 @@ def run_walk(robot: RobotModel, hw: SafetyLayer, goal: WalkGoal, settings: WalkS
                                             s.grf_limit_ratio), start, log)
     stood = HeldFor(lambda: controller.standing and path.done, STAND_AFTER, "stood at the goal")
     bar = ProgressBar(path.duration + STAND_AFTER + 1.0, progress)
-    loop = ControlLoop([hw], [controller], dt, recorders=[MetricsRecorder([metrics]), walk, bar],
+    loop = ControlLoop([hw], [view.stepped], dt, recorders=[MetricsRecorder([metrics]), walk, bar, *view.recorders],
                        stops=[Fell([metrics]), stood, TimeLimit(path.time_limit, "did not finish the path")])
     try:
         result = loop.run([state])
@@ -74,9 +77,8 @@ def run_walk(robot: RobotModel, hw: SafetyLayer, goal: WalkGoal, settings: WalkS
         stood_s=round(stood.held(result.states[0].t), 3), stabilizer=s.stabilize, arms=s.arms.value,
         dynfilter=s.dynfilter.value, dynfilter_passes=s.dynfilter_passes if filtered else 0,
         dynfilter_fallbacks=controller.filter_fallbacks,
-        dynfilter_worker=s.dynfilter_worker and filtered, safety=hw.report(), disturbances=disturbances.to_dict(),
-        rtf=round(result.rtf, 3),
-        control_rate_hz=round(1.0 / dt, 3))
+        dynfilter_worker=s.dynfilter_worker and filtered, **view.report(), safety=hw.report(),
+        disturbances=disturbances.to_dict(), rtf=round(result.rtf, 3), control_rate_hz=round(1.0 / dt, 3))
     log(f"fell: {str(report['fell']).lower()}  final base (x, y, yaw) {report['final_base_xy_yaw']} vs commanded "
         f"{report['commanded_base_xy_yaw']}  zmp_in_support_ratio {report['zmp_in_support_ratio']}  "
         f"peak_torque_ratio {report['peak_torque_ratio']:.3f}  steps {len(walk.footsteps)}  rtf {report['rtf']}")
