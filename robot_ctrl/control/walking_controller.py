@@ -40,6 +40,7 @@ from robot_ctrl.wpg.params import WalkParams
 
 MAX_BALANCE_SHIFT = 0.04  # [m] of :meth:`WalkingController.shift_balance`, well inside a sole
 MAX_FOOT_FOLLOW = 0.05  # [m] a larger gap between the planned and measured stance foot is not followed
+MIN_STANCE_TICKS = 5  # measurements of a stance foot needed to follow it
 
 
 def sole_footstep(side: str, pose: pin.SE3) -> Footstep:
@@ -111,6 +112,7 @@ class WalkingController:
         self._hands: dict[str, tuple[np.ndarray, np.ndarray] | None] = {s: None for s in SIDES}
         self._balance_shift = np.zeros(2)
         self.plan_shift = np.zeros(2)  # [m] how far the plan has followed the real feet so far
+        self._stance: tuple[str, np.ndarray, int] | None = None  # side, sum of measured sole xy, ticks
 
     # Commands ---------------------------------------------------------------------------------
     def on_sample(self, hook: Callable[[PlanSample], None]) -> None:
@@ -233,21 +235,35 @@ class WalkingController:
 
     def _follow_the_feet(self) -> None:
         """Move the plan (and the IK's reference configuration with it) to where the stance foot
-        really is, when it alone carries the robot: without it the small error of every landing adds
-        up over a long walk, the measured CoM runs ahead of a plan whose feet are elsewhere and the
-        stabilizer's bounded correction ends by not being enough (a 10 m walk fell). The joints'
-        references do not change; the plan's future steps start from the real feet."""
-        est, wpg = self.estimate, self.wpg
-        if est is None or wpg.phase != "single" or not est.in_contact[wpg.stance] or est.in_contact[other(wpg.stance)]:
+        really is, measured over the last sample while it alone carried the robot: without it the
+        small error of every landing adds up over a long walk, the measured CoM runs ahead of a plan
+        whose feet are elsewhere and the stabilizer's bounded correction ends by not being enough (a
+        10 m walk fell). The mean over the sample keeps attitude noise (a leg's 1 m lever) out of the
+        plan. The joints' references do not change; the plan's future steps start from the real feet."""
+        stance, self._stance = self._stance, None
+        if stance is None or stance[2] < MIN_STANCE_TICKS:
             return
-        planned = wpg.feet[wpg.stance]
-        delta = est.soles[wpg.stance].translation[:2] - (planned.x, planned.y)
+        side, total, n = stance
+        planned = self.wpg.feet[side]
+        delta = total / n - (planned.x, planned.y)
         if np.linalg.norm(delta) <= MAX_FOOT_FOLLOW:
-            wpg.shift(delta)
+            self.wpg.shift(delta)
             q = self.ik.q.copy()
             q[:2] += delta
             self.ik.set_configuration(q)
             self.plan_shift += delta
+
+    def _measure_stance(self, ref: WalkReference) -> None:
+        """Add this tick's measured sole of the plan's single stance foot, if it alone touches."""
+        est = self.estimate
+        down = [s for s in SIDES if ref.in_contact[s]]
+        if len(down) != 1 or not est.in_contact[down[0]] or est.in_contact[other(down[0])]:
+            return
+        side = down[0]
+        if self._stance is None or self._stance[0] != side:
+            self._stance = (side, np.zeros(2), 0)
+        _, total, n = self._stance
+        self._stance = (side, total + est.soles[side].translation[:2], n + 1)
 
     def step(self, state: JointState) -> JointCommand:
         """The joint command for the tick from the measured ``state``: the balance stabilizer's
@@ -258,6 +274,7 @@ class WalkingController:
         self.k += 1
         self.reference = ref
         self.estimate = self.estimator.estimate(state)
+        self._measure_stance(ref)
         correction = self.stabilizer.correction(self.estimate, com, com_velocity, ref.zmp + self._balance_shift, self.dt)
         ik = self.ik
         ik.com.set_target(np.array([*(com + correction), self.com_z]), ik.com.target_velocity)
