@@ -759,7 +759,7 @@ def _hw(args: argparse.Namespace) -> int:
             print(f"{args.joint}: its drive's zero is now its present position")
             return 0
         if args.action in ("scan", "check"):
-            result = bringup.scan(hw) if args.action == "scan" else bringup.check(robot, hw, params)
+            result = bringup.scan(robot, hw) if args.action == "scan" else bringup.check(robot, hw, params)
         else:
             pacer = Pacer(params.control_dt) if kind.real else None
             if pacer is not None and not Pacer.request_realtime():

@@ -108,5 +108,11 @@ def test_bring_up_commands_on_the_emulated_bus(capsys):
     assert "reached: True" in out and float(re.search(r"final_error_rad: (\S+)", out)[1]) < 0.05
     assert main(["hw", "jog", "arm_left_4_joint", "1.0"]) == 3  # beyond the elbow's upper limit
     assert "arm_left_4_joint would go to" in capsys.readouterr().err
+    assert main(["hw", "scan"]) == 0  # the emulated bus's mini-cheetah drives have no CAN timeout
+    out = capsys.readouterr().out
+    assert "answering: 32" in out and "stop_without_host: 0 of 32 joints" in out and "'head_2_joint']" in out
+    assert main(["hw", "scan", "--hw", "dynamixel-emulated"]) == 0  # every servo's bus watchdog is armed
+    out = capsys.readouterr().out
+    assert "stop_without_host: 32 of 32 joints" in out and "hold_last_command_without_host: []" in out
     assert main(["hw", "scan", "--hw", "mit-can"]) == 2
     assert "--hw mit-can needs --bus-config" in capsys.readouterr().err

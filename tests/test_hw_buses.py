@@ -42,12 +42,37 @@ def test_mit_frames_round_trip_within_one_quantization_step():
         decoded = unpack_command(pack_command(*values, r), r)
         for f, x, y in zip(("position", "velocity", "kp", "kd", "torque"), values, decoded):
             assert abs(x - y) <= r.step(f) / 2 + 1e-12
-        motor, p, v, t = unpack_reply(pack_reply(7, values[0], values[1], values[4], r), r)
-        assert motor == 7 and abs(p - values[0]) <= r.step("position") / 2 + 1e-12
-        assert abs(v - values[1]) <= r.step("velocity") / 2 + 1e-12 and abs(t - values[4]) <= r.step("torque") / 2 + 1e-12
+        reply = unpack_reply(pack_reply(7, values[0], values[1], values[4], r), r)
+        assert reply.motor_id == 7 and abs(reply.position - values[0]) <= r.step("position") / 2 + 1e-12
+        assert abs(reply.velocity - values[1]) <= r.step("velocity") / 2 + 1e-12
+        assert abs(reply.torque - values[4]) <= r.step("torque") / 2 + 1e-12
     assert unpack_command(pack_command(99.0, 0, 0, 0, -999.0, r), r)[0] == 12.5  # clamped into the range
     with pytest.raises(ValueError, match="NaN"):
         pack_command(float("nan"), 0, 0, 0, 0, r)
+
+
+@pytest.mark.parametrize("fmt,length", [("mit6", 6), ("cubemars", 8), ("damiao", 8)])
+def test_mit_reply_formats_carry_temperature_and_faults(fmt, length):
+    r = MitRanges((-12.5, 12.5), (-20.0, 20.0), (0.0, 500.0), (0.0, 5.0), (-10.0, 10.0))
+    data = pack_reply(7, 1.25, -2.0, 3.5, r, fmt, temperature=48.0)
+    reply = unpack_reply(data, r, fmt)
+    assert len(data) == length and reply.motor_id == 7 and reply.fault is None
+    assert abs(reply.position - 1.25) <= r.step("position") / 2 + 1e-12
+    assert abs(reply.velocity + 2.0) <= r.step("velocity") / 2 + 1e-12
+    assert abs(reply.torque - 3.5) <= r.step("torque") / 2 + 1e-12
+    if fmt == "mit6":
+        assert reply.temperature is None and reply.enabled is None
+        return
+    assert reply.temperature == 48.0
+    if fmt == "cubemars":  # byte 6: °C + 40, byte 7: fault code
+        assert data[6:] == bytes([88, 0])
+        assert unpack_reply(pack_reply(7, 0, 0, 0, r, fmt, code=4), r, fmt).fault == "over-current"
+    else:  # byte 0: status << 4 | id; bytes 6, 7: MOSFET and rotor °C
+        assert data[0] == 0x17 and data[6:] == bytes([48, 48]) and reply.enabled is True
+        lost = unpack_reply(pack_reply(7, 0, 0, 0, r, fmt, code=13), r, fmt)
+        assert lost.motor_id == 7 and lost.fault.startswith("communication lost") and lost.enabled is False
+        disabled = unpack_reply(pack_reply(7, 0, 0, 0, r, fmt, code=0), r, fmt)
+        assert disabled.fault is None and disabled.enabled is False
 
 
 def test_dynamixel_packets_match_the_wire_format():
@@ -71,6 +96,12 @@ def test_bus_config_errors_name_the_joint_and_field(talos, tmp_path):
         load_bus_config(bad, talos.joint_names)
     bad.write_text("\n".join(line for line in text.splitlines() if not line.strip().startswith("head_2_joint")))
     with pytest.raises(ConfigError, match=r"joints missing from the mapping: \['head_2_joint'\]"):
+        load_bus_config(bad, talos.joint_names)
+    bad.write_text(text.replace("  wrist:   {position", "  wrist:   {reply: damiao, position"))
+    with pytest.raises(ConfigError, match=r"joints.arm_left_5_joint: bus can2 mixes reply formats"):
+        load_bus_config(bad, talos.joint_names)
+    bad.write_text(text.replace("reply_timeout_s: 0.05", "reply_timeout_s: 0.05\ndrive_timeout_s: 0"))
+    with pytest.raises(ConfigError, match=r"drive_timeout_s = 0 is outside the allowed range \[0.001, 10\] s"):
         load_bus_config(bad, talos.joint_names)
 
 
@@ -276,17 +307,51 @@ def test_estop_latches_until_reset(talos, mit):
     assert np.all(emulator.received[-1][1].kp <= 0.06 * talos.kp + 3.0)  # soft start again
 
 
-def configured_dynamixel(talos):
+def configured_dynamixel(talos, without_current_mode=()):
     """The safety layer over the Dynamixel backend (configured, not active), the emulator on a pty, a fake clock."""
     config = load_bus_config("talos_dynamixel", talos.joint_names)
     emulator = DynamixelEmulator(config, MujocoBackend(talos))
+    emulator.without_current_mode = set(without_current_mode)
     emulator.start()
     config = dataclasses.replace(config, buses={"port": dict(config.buses["port"], device=emulator.port_name)})
     clock = FakeClock()
-    hw = SafetyLayer(DynamixelBackend(config, talos.kd, body_sensors=emulator.body_state),
+    hw = SafetyLayer(DynamixelBackend(config, talos.kd, body_sensors=emulator.body_state, effort=talos.effort),
                      SafetyLimits.from_robot(talos, soft_start=0.05), clock=clock)
-    hw.configure()
+    try:
+        hw.configure()
+    except Exception:
+        hw.close()
+        emulator.close()
+        raise
     return hw, emulator, clock
+
+
+def test_dynamixel_servos_run_in_current_based_position_mode_limited_to_their_effort(talos):
+    hw, emulator, clock = configured_dynamixel(talos)
+    try:
+        assert np.all(emulator.operating_mode == 5) and np.all(emulator.return_delay == 0)
+        assert np.all(emulator.profile == 0)
+        hw.activate()
+        expected = np.ceil(talos.effort / 0.01)  # talos-emulated: 0.01 N·m per current unit
+        np.testing.assert_array_equal(emulator.goal_current, expected)
+        state = hw.read()
+        knee = talos.joint_names.index("leg_left_4_joint")
+        emulator.goal_current[knee] = 2000  # 20 N·m: the servo's own limit now binds
+        q = state.q.copy()
+        q[knee] += 0.2  # kp × 0.2 rad asks far more than 20 N·m
+        for _ in range(30):
+            state = tick(hw, clock, hold(talos, state, q=q))
+        sent = emulator.received[-1][1]
+        torque = sent.kp[knee] * (sent.q[knee] - state.q[knee]) - sent.kd[knee] * state.dq[knee]
+        assert sent.kp[knee] > 0 and abs(torque) <= 20.0 + 0.5
+    finally:
+        hw.close()
+        emulator.close()
+
+
+def test_a_servo_without_current_based_position_mode_fails_the_configuration(talos):
+    with pytest.raises(HardwareFault, match=r"arm_left_3_joint \(servo 17\) does not take 5 at address 11"):
+        configured_dynamixel(talos, without_current_mode={talos.joint_names.index("arm_left_3_joint")})
 
 
 def test_temperature_derates_then_faults(talos):
@@ -396,6 +461,74 @@ def test_an_expired_dynamixel_bus_watchdog_fails_the_run(talos):
         with pytest.raises(HardwareFault, match="bus watchdog expired"):
             for _ in range(ERROR_CHECK_TICKS):
                 state = tick(hw, clock, hold(talos, state))
+    finally:
+        hw.close()
+        emulator.close()
+
+
+def with_reply(talos, fmt):
+    config = load_bus_config("talos_mit_can", talos.joint_names)
+    return {name: dict(model, reply=fmt) for name, model in config.models.items()}
+
+
+def test_damiao_drives_take_a_can_timeout_and_disable_themselves_when_the_host_stops(talos):
+    hw, emulator, clock = configured_mit(talos, models=with_reply(talos, "damiao"), drive_timeout=0.2)
+    try:
+        assert [r[9] for r in emulator.registers] == [4000] * talos.nj  # 0.2 s in 50 µs units, read back
+        assert hw.backend.drive_timeout_joints == talos.joint_names
+        hw.activate()
+        state = hw.read()
+        assert state.temperature is not None and np.all(state.temperature == 30.0)  # the drives' report
+        for _ in range(10):
+            state = tick(hw, clock, hold(talos, state))
+        threading.Event().wait(0.3)  # the host stalls past the drives' timeout
+        with pytest.raises(HardwareFault, match="leg_left_1_joint: communication lost"):
+            tick(hw, clock, hold(talos, state))
+        assert not emulator.enabled.any() and hw.state is LifecycleState.FAULT
+    finally:
+        hw.close()
+        emulator.close()
+
+
+def test_a_drive_that_does_not_confirm_its_timeout_fails_the_configuration(talos):
+    config = fresh_mit_config(talos, models=with_reply(talos, "damiao"))
+    emulator = MitCanEmulator(config, MujocoBackend(talos))
+    emulator.silent = {talos.joint_names.index("arm_right_2_joint")}
+    emulator.start()
+    hw = SafetyLayer(MitCanBackend(config, talos.kd, body_sensors=emulator.body_state),
+                     SafetyLimits.from_robot(talos), clock=FakeClock())
+    try:
+        with pytest.raises(HardwareFault, match="arm_right_2_joint did not confirm their CAN timeout"):
+            hw.configure()
+    finally:
+        hw.close()
+        emulator.close()
+
+
+def test_a_drive_fault_in_an_8_byte_reply_is_a_hardware_fault(talos):
+    hw, emulator, clock = configured_mit(talos, models=with_reply(talos, "cubemars"))
+    knee = talos.joint_names.index("leg_left_4_joint")
+    try:
+        hw.activate()
+        state = hw.read()
+        for _ in range(10):
+            state = tick(hw, clock, hold(talos, state))
+        emulator.faults[knee] = 4
+        with pytest.raises(HardwareFault, match="leg_left_4_joint: over-current"):
+            tick(hw, clock, hold(talos, state))
+        assert hw.state is LifecycleState.FAULT and np.all(emulator.received[-1][1].kp == 0)  # damping sent
+    finally:
+        hw.close()
+        emulator.close()
+
+
+def test_a_drive_in_fault_refuses_activation(talos):
+    hw, emulator, clock = configured_mit(talos, models=with_reply(talos, "damiao"))
+    emulator.faults[talos.joint_names.index("torso_2_joint")] = 8
+    try:
+        with pytest.raises(HardwareFault, match="torso_2_joint: over-voltage"):
+            hw.activate()
+        assert not emulator.enabled.any()
     finally:
         hw.close()
         emulator.close()

@@ -39,6 +39,11 @@ class HardwareAdapter(ABC):
     def state(self) -> LifecycleState:
         return self._state
 
+    @property
+    def drive_timeout_joints(self) -> tuple[str, ...]:
+        """Joints whose drive stops by itself when the host stops sending (none by default)."""
+        return ()
+
     def _require(self, call: str, *allowed: LifecycleState) -> None:
         if self._closed:
             raise LifecycleError(f"{call}() after close()")

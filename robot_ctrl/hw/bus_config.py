@@ -13,6 +13,11 @@ entry per joint of the robot::
       leg_left_1_joint: {bus: can0, id: 1, model: leg, direction: 1, zero_offset: 0.0, gear_ratio: 1.0}
     reply_timeout_s: 0.001                # mit_can: the longest wait for a tick's replies
     max_missed_replies: 3                 # a motor's last values are held this many ticks, then a fault
+    drive_timeout_s: 0.1                  # mit_can: drives with a CAN timeout (Damiao) disable themselves
+                                          # after this long without a command
+
+A mit_can model may name its reply format, ``reply: mit6`` (default), ``cubemars`` or ``damiao``
+(``mit_protocol``); the motors of one bus share one format, and Damiao ids are 1..15.
 
 Conventions (motor side = what crosses the bus, joint side = the robot config's joint order)::
 
@@ -33,6 +38,7 @@ import numpy as np
 import yaml
 
 from robot_ctrl import ROOT
+from robot_ctrl.hw.mit_protocol import REPLY_FORMATS
 from robot_ctrl.robot.config import ConfigError
 
 HW_CONFIGS = ROOT / "configs" / "hw"
@@ -59,6 +65,11 @@ class BusConfig:
     path: Path
     reply_timeout: float = 0.001  # [s] the longest wait for a tick's replies (mit_can)
     max_missed_replies: int = 3  # replies a motor may miss in a row (its last values held) before a fault
+    drive_timeout: float = 0.1  # [s] set on drives that have a CAN timeout (mit_can, Damiao)
+
+    def reply_format(self, motor: MotorMap) -> str:
+        """The reply format of ``motor``'s model (mit_can)."""
+        return self.models[motor.model].get("reply", "mit6")
 
     # Joint side <-> motor side, vectorized over the joints.
     @property
@@ -115,6 +126,8 @@ def load_bus_config(name_or_path: str | Path, joint_names: tuple[str, ...]) -> B
                 r = ranges.get(key) if isinstance(ranges, dict) else None
                 _require(isinstance(r, list) and len(r) == 2 and all(isinstance(x, (int, float)) for x in r)
                          and r[0] < r[1], f"models.{model}.{key} must be [low, high] with low < high", path)
+            _require(ranges.get("reply", "mit6") in REPLY_FORMATS,
+                     f"models.{model}.reply must be one of {', '.join(REPLY_FORMATS)}", path)
     else:
         port = data.get("port") or {}
         _require(isinstance(port, dict) and "device" in port and "baudrate" in port,
@@ -131,6 +144,9 @@ def load_bus_config(name_or_path: str | Path, joint_names: tuple[str, ...]) -> B
     missed = data.get("max_missed_replies", BusConfig.max_missed_replies)
     _require(isinstance(missed, int) and 0 <= missed <= 1000,
              f"max_missed_replies = {missed!r} is outside the allowed range [0, 1000]", path)
+    drive_timeout = data.get("drive_timeout_s", BusConfig.drive_timeout)
+    _require(isinstance(drive_timeout, (int, float)) and 0.001 <= drive_timeout <= 10.0,
+             f"drive_timeout_s = {drive_timeout!r} is outside the allowed range [0.001, 10] s", path)
     joints = data.get("joints") or {}
     _require(isinstance(joints, dict), "joints must map joint names to motors", path)
     missing = [j for j in joint_names if j not in joints]
@@ -160,4 +176,13 @@ def load_bus_config(name_or_path: str | Path, joint_names: tuple[str, ...]) -> B
         gear = entry.get("gear_ratio", 1.0)
         _require(isinstance(gear, (int, float)) and gear > 0, f"joints.{joint}.gear_ratio must be > 0", path)
         motors.append(MotorMap(joint, bus, motor_id, model, int(direction), float(zero), float(gear)))
-    return BusConfig(backend, buses, models, tuple(motors), path, float(timeout), missed)
+    config = BusConfig(backend, buses, models, tuple(motors), path, float(timeout), missed, float(drive_timeout))
+    if backend == "mit_can":
+        formats: dict[str, tuple[str, str]] = {}
+        for m in motors:
+            fmt = config.reply_format(m)
+            first = formats.setdefault(m.bus, (fmt, m.joint))
+            _require(first[0] == fmt, f"joints.{m.joint}: bus {m.bus} mixes reply formats ({first[1]} is {first[0]}, "
+                     f"{m.joint} is {fmt}); give each drive family a bus of its own", path)
+            _require(fmt != "damiao" or m.id <= 15, f"joints.{m.joint}.id must be in [1, 15] for a Damiao drive", path)
+    return config

@@ -6,9 +6,14 @@ when they changed (clipped to the register range, ``GAIN_MAX``), and one Sync Re
 current, velocity, position and temperature; every ``ERROR_CHECK_TICKS`` ticks, a Sync Read of
 each servo's Hardware Error Status and Bus Watchdog: a servo shut down by an error (overload,
 overheating...) or whose watchdog expired (it then ignores goals) fails the write, naming it.
-``activate`` refuses a servo in hardware error, writes P = 0, D = ``kd_damping`` and goal = present
-position, then clears and arms each servo's Bus Watchdog (``watchdog_ms``) and enables torque (so
-torque comes on soft and where the servo is); ``deactivate`` disables torque; ``estop`` writes P = 0
+``configure`` (torque off, so the EEPROM takes writes) puts every servo in current-based position
+mode (Operating Mode 5: the position PID outputs a motor current, so the gains act on torque, not on
+PWM), with return delay 0 and no motion profile (the goal is taken at once), each read back: a
+servo that refuses (a model without mode 5) fails the configuration, naming its joint.
+``activate`` refuses a servo in hardware error, writes its Goal Current (the servo's torque limit:
+its joint's ``effort`` through the gear and torque constant, at most its Current Limit), P = 0,
+D = ``kd_damping`` and goal = present position, then clears and arms each servo's Bus Watchdog
+(``watchdog_ms``) and enables torque (so torque comes on soft and where the servo is); ``deactivate`` disables torque; ``estop`` writes P = 0
 and D = ``kd_damping`` (damping mode).
 
 A Dynamixel takes a position goal and gains, not a velocity or torque feedforward. The servo law
@@ -42,7 +47,8 @@ ERROR_CHECK_TICKS = 40  # [ticks] between reads of the Hardware Error Status and
 
 class DynamixelBackend(HardwareAdapter):
     def __init__(self, config: BusConfig, kd_damping: np.ndarray, body_sensors: Callable[[], JointState] | None = None,
-                 watchdog_ms: float = 100.0, clock: Callable[[], float] = time.monotonic):
+                 watchdog_ms: float = 100.0, clock: Callable[[], float] = time.monotonic,
+                 effort: np.ndarray | None = None):
         if config.backend != "dynamixel":
             raise ValueError(f"{config.path.name} is a {config.backend!r} config, not dynamixel")
         if not 20.0 <= watchdog_ms <= 127 * 20.0:
@@ -55,6 +61,8 @@ class DynamixelBackend(HardwareAdapter):
         self.clock = clock
         self.ids = [m.id for m in config.motors]
         self.units = dxl.RegisterUnits.of(config)
+        self.effort = None if effort is None else np.asarray(effort, dtype=float)  # [N·m] joint side
+        self.goal_current: np.ndarray | None = None  # registers written at activation
         self._p = np.zeros(self.nj)  # motor side
         self._v = np.zeros(self.nj)
         self._t = np.zeros(self.nj)
@@ -65,6 +73,11 @@ class DynamixelBackend(HardwareAdapter):
         self.missing_replies = 0
         self._port = None
         self._ticks = 0
+
+    @property
+    def drive_timeout_joints(self) -> tuple[str, ...]:
+        """Every servo: its Bus Watchdog, armed at activation, stops it when goals stop coming."""
+        return tuple(m.joint for m in self.config.motors)
 
     # Lifecycle hooks ------------------------------------------------------------------------------
     def _on_configure(self) -> None:
@@ -87,11 +100,42 @@ class DynamixelBackend(HardwareAdapter):
         self._sync_read()
         if self._time is None:
             raise OSError(f"no answer from the servos {self.ids} on {port['device']}")
+        current_limit = []
+        for m in self.config.motors:  # torque is off: the EEPROM can be written
+            self._set(m, dxl.RETURN_DELAY_TIME, 0, 1)
+            self._set(m, dxl.OPERATING_MODE, dxl.CURRENT_BASED_POSITION, 1)
+            self._set(m, dxl.PROFILE_ACCELERATION, 0, 4)
+            self._set(m, dxl.PROFILE_VELOCITY, 0, 4)
+            current_limit.append(self._read_register(m, dxl.CURRENT_LIMIT, 2))
+        limit = np.array(current_limit)
+        if self.effort is not None:
+            wanted = np.ceil(self.effort / self.config.gear / self.units.torque).astype(int)
+            limit = np.minimum(wanted, limit)
+        self.goal_current = limit
+
+    def _set(self, motor, address: int, value: int, size: int) -> None:
+        """Write a register and read it back; raise naming the joint if the servo refuses it."""
+        write = {1: self._packet.write1ByteTxRx, 2: self._packet.write2ByteTxRx, 4: self._packet.write4ByteTxRx}[size]
+        result, error = write(self._port, motor.id, address, value)
+        if result != sdk.COMM_SUCCESS or error or self._read_register(motor, address, size) != value:
+            raise OSError(f"{motor.joint} (servo {motor.id}) does not take {value} at address {address} "
+                          f"({self._packet.getTxRxResult(result)}, error {error}): current-based position mode (5), "
+                          "return delay 0 and no profile are needed (an X-series servo with mode 5, torque off)")
+
+    def _read_register(self, motor, address: int, size: int) -> int:
+        read = {1: self._packet.read1ByteTxRx, 2: self._packet.read2ByteTxRx, 4: self._packet.read4ByteTxRx}[size]
+        value, result, error = read(self._port, motor.id, address)
+        if result != sdk.COMM_SUCCESS or error:
+            raise OSError(f"{motor.joint} (servo {motor.id}): reading address {address} failed "
+                          f"({self._packet.getTxRxResult(result)}, error {error})")
+        return value
 
     def _on_activate(self) -> None:
         self._check_servos(watchdog=False)
         self._gains = None
         self._on_estop()  # P = 0, D = damping, goal = present position: torque comes on soft, in place
+        for m, current in zip(self.config.motors, self.goal_current):
+            self._set(m, dxl.GOAL_CURRENT, int(current), 2)  # the servo's torque limit: its joint's effort
         for servo in self.ids:
             self._write_byte(servo, dxl.BUS_WATCHDOG, 0)  # clears a tripped watchdog
             self._write_byte(servo, dxl.TORQUE_ENABLE, 1)

@@ -5,13 +5,19 @@ The emulator opens a pty pair and serves the servo side of the wire on the maste
 (or any Dynamixel tool) opens ``port_name``, the slave end, as it would open ``/dev/ttyUSB0``. It
 answers Ping, Read, Write, Sync Read and Sync Write for the servos of the bus config with status
 packets (CRC and byte stuffing as on the wire, ``dynamixel_protocol``). Registers kept per servo:
-Torque Enable, position D/I/P gains, Bus Watchdog, Goal Position; present current, velocity,
-position and temperature are computed from the plant.
+Torque Enable, position D/I/P gains, Bus Watchdog, Goal Position, Operating Mode, Return Delay
+Time, Current Limit, Goal Current and the profile; present current, velocity, position and
+temperature are computed from the plant. EEPROM registers (Operating Mode, Return Delay Time,
+Current Limit) refuse writes while torque is on (access error), as on a servo; servos listed in
+``without_current_mode`` are a model without current-based position mode (a write of 5 is a data
+range error).
 
 Each Sync Write of Goal Position that covers every servo applies the goals to the ``plant`` (a
 HardwareAdapter, normally the MuJoCo backend: hardware in the loop) and advances it one control
 period: servo i follows ``kp_i (goal_i − q_i) − kd_i dq_i`` with kp = P × kp_unit and kd = D ×
-kd_unit (joint side through the gear ratio). Torque disabled: limp. A Bus Watchdog that expires
+kd_unit (joint side through the gear ratio); in current-based position mode that torque is bounded
+by Goal Current at the measured state (``bound_servo_torque``); the PWM output of the other modes is
+not modelled. Torque disabled: limp. A Bus Watchdog that expires
 (no packet for its time, wall clock) stops the servo: damping only (kp = 0), the register reads
 −1 until the host writes 0, as on X-series servos. ``temperature`` (°C, per servo) is what Present
 Temperature reports; tests raise it to exercise the safety layer. ``hardware_error`` (per servo)
@@ -34,7 +40,11 @@ import numpy as np
 from robot_ctrl.hw import dynamixel_protocol as dxl
 from robot_ctrl.hw.adapter import HardwareAdapter
 from robot_ctrl.hw.bus_config import BusConfig
+from robot_ctrl.hw.servo_torque import bound_servo_torque
 from robot_ctrl.hw.types import JointCommand, JointState
+
+CURRENT_LIMIT = 32767  # the emulated model's Current Limit register (its largest value)
+EEPROM = {dxl.RETURN_DELAY_TIME: 1, dxl.OPERATING_MODE: 1, dxl.CURRENT_LIMIT: 2}  # address: size
 
 
 class DynamixelEmulator:
@@ -53,6 +63,12 @@ class DynamixelEmulator:
         self.goal = np.zeros(n, dtype=np.int64)
         self.temperature = np.full(n, float(temperature))
         self.hardware_error = np.zeros(n, dtype=int)  # Hardware Error Status, set by tests
+        self.operating_mode = np.full(n, 3)  # X-series default: position control (PWM output)
+        self.return_delay = np.full(n, 250)  # [2 µs]
+        self.current_limit = np.full(n, CURRENT_LIMIT)
+        self.goal_current = np.full(n, CURRENT_LIMIT)
+        self.profile = np.zeros((n, 2), dtype=np.int64)  # acceleration, velocity
+        self.without_current_mode: set[int] = set()
         self.received: list[tuple[float, JointCommand]] = []
         self._lock = threading.Lock()
         self._state: JointState | None = None
@@ -137,15 +153,34 @@ class DynamixelEmulator:
         if instruction == dxl.INST_PING:
             return dxl.status(servo, bytes([0x06, 0x04, 0x2D]))  # model 1030 (XM430-W350), firmware 45
         if instruction == dxl.INST_WRITE:
-            self._store(i, int.from_bytes(params[0:2], "little"), params[2:])
-            return dxl.status(servo)
+            return dxl.status(servo, error=self._store(i, int.from_bytes(params[0:2], "little"), params[2:]))
         if instruction == dxl.INST_READ:
             address, length = int.from_bytes(params[0:2], "little"), int.from_bytes(params[2:4], "little")
             return dxl.status(servo, self._load(i, address, length))
         return dxl.status(servo, error=0x02)  # instruction error
 
-    def _store(self, i: int, address: int, data: bytes) -> None:
-        if address == dxl.TORQUE_ENABLE:
+    def _store(self, i: int, address: int, data: bytes) -> int:
+        """Write a register; the status error (0 when taken)."""
+        value = int.from_bytes(data, "little")
+        if address in EEPROM:
+            if self.torque_enable[i]:
+                return dxl.ACCESS_ERROR
+            if address == dxl.OPERATING_MODE:
+                if value == dxl.CURRENT_BASED_POSITION and i in self.without_current_mode:
+                    return dxl.DATA_RANGE_ERROR
+                self.operating_mode[i] = value
+            elif address == dxl.RETURN_DELAY_TIME:
+                self.return_delay[i] = value
+            else:
+                self.current_limit[i] = value
+            return 0
+        if address == dxl.GOAL_CURRENT and len(data) == 2:
+            if value > self.current_limit[i]:
+                return dxl.DATA_RANGE_ERROR
+            self.goal_current[i] = value
+        elif address in (dxl.PROFILE_ACCELERATION, dxl.PROFILE_VELOCITY) and len(data) == 4:
+            self.profile[i, address == dxl.PROFILE_VELOCITY] = value
+        elif address == dxl.TORQUE_ENABLE:
             self.torque_enable[i] = data[0] if not self.hardware_error[i] else 0  # shut down until a reboot
         elif address == dxl.GAINS and len(data) == 6:
             gains = [int.from_bytes(data[k : k + 2], "little") for k in (0, 2, 4)]
@@ -155,9 +190,16 @@ class DynamixelEmulator:
             self.watchdog[i] = dxl.to_signed(data[0], 1)
         elif address == dxl.GOAL_POSITION and len(data) == 4:
             self.goal[i] = dxl.to_signed(int.from_bytes(data, "little"), 4)
+        return 0
 
     def _load(self, i: int, address: int, length: int) -> bytes:
         table = bytearray(256)
+        table[dxl.RETURN_DELAY_TIME] = self.return_delay[i]
+        table[dxl.OPERATING_MODE] = self.operating_mode[i]
+        table[dxl.CURRENT_LIMIT : dxl.CURRENT_LIMIT + 2] = dxl.to_bytes(int(self.current_limit[i]), 2)
+        table[dxl.GOAL_CURRENT : dxl.GOAL_CURRENT + 2] = dxl.to_bytes(int(self.goal_current[i]), 2)
+        table[dxl.PROFILE_ACCELERATION : dxl.PROFILE_ACCELERATION + 4] = dxl.to_bytes(int(self.profile[i, 0]), 4)
+        table[dxl.PROFILE_VELOCITY : dxl.PROFILE_VELOCITY + 4] = dxl.to_bytes(int(self.profile[i, 1]), 4)
         table[dxl.TORQUE_ENABLE] = self.torque_enable[i]
         table[dxl.HARDWARE_ERROR_STATUS] = self.hardware_error[i]
         table[dxl.GAINS : dxl.GAINS + 6] = b"".join(dxl.to_bytes(int(g), 2) for g in self.gains[i])
@@ -183,9 +225,14 @@ class DynamixelEmulator:
         on = self.torque_enable.astype(float)
         stiff = on * (self.watchdog >= 0)  # an expired watchdog leaves damping only
         goal = self.goal * self.units.position
-        cmd = JointCommand(q=c.direction * (goal - c.zero) / c.gear, dq=np.zeros(self.nj),
-                           kp=stiff * self.gains[:, 2] * self.units.kp * c.gear**2,
-                           kd=on * self.gains[:, 0] * self.units.kd * c.gear**2, tau_ff=np.zeros(self.nj))
+        q_des, zero = c.direction * (goal - c.zero) / c.gear, np.zeros(self.nj)
+        kp = stiff * self.gains[:, 2] * self.units.kp * c.gear**2
+        kd = on * self.gains[:, 0] * self.units.kd * c.gear**2
+        current_mode = self.operating_mode == dxl.CURRENT_BASED_POSITION
+        limit = np.where(current_mode, self.goal_current * self.units.torque * c.gear, np.inf)  # joint side [N·m]
+        s = self._state
+        q_des, kp, kd, _, _ = bound_servo_torque(q_des, zero, kp, kd, zero, s.q, s.dq, limit, -np.inf, np.inf)
+        cmd = JointCommand(q=q_des, dq=zero, kp=kp, kd=kd, tau_ff=zero)
         self.received.append((self._state.t, cmd))
         self.plant.write(cmd)
         self._state = self.plant.read()

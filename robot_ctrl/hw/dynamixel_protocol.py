@@ -25,11 +25,18 @@ INST_PING, INST_READ, INST_WRITE, INST_STATUS = 0x01, 0x02, 0x03, 0x55
 INST_SYNC_READ, INST_SYNC_WRITE = 0x82, 0x83
 BROADCAST = 0xFE
 
+RETURN_DELAY_TIME = 9  # EEPROM, 2 µs units (default 250: 500 µs per servo and read)
+OPERATING_MODE = 11  # EEPROM
+CURRENT_BASED_POSITION = 5  # Operating Mode: the position PID outputs a current, limited by Goal Current
+CURRENT_LIMIT = 38  # EEPROM, 2 bytes
 TORQUE_ENABLE = 64
 HARDWARE_ERROR_STATUS = 70
 GAINS = 80  # D gain (2 bytes), I gain (2), P gain (2)
 GAIN_MAX = 16383  # the position gains' register range; a servo ignores a write beyond it
 BUS_WATCHDOG = 98
+GOAL_CURRENT = 102  # 2 bytes, ≤ Current Limit
+PROFILE_ACCELERATION = 108  # 4 bytes; 0: no profile, the goal is taken at once
+PROFILE_VELOCITY = 112  # 4 bytes
 GOAL_POSITION = 116
 PRESENT = 126  # current (2), velocity (4), position (4), … temperature at 146
 PRESENT_LENGTH = 21
@@ -37,6 +44,8 @@ TEMPERATURE_OFFSET = 146 - PRESENT
 
 
 #: Hardware Error Status bits (X-series): any of them shuts the servo's torque off until a reboot.
+#: Status packet errors (Protocol 2.0).
+DATA_RANGE_ERROR, ACCESS_ERROR = 0x04, 0x07
 HARDWARE_ERRORS = {0: "input voltage", 2: "overheating", 3: "motor encoder", 4: "electrical shock", 5: "overload"}
 
 

@@ -84,7 +84,7 @@ def open_hardware(kind: HardwareKind | str, robot: RobotModel, bus_config: str |
         emulator = DynamixelEmulator(config, plant)
         emulator.start()
         config = dataclasses.replace(config, buses={"port": dict(config.buses["port"], device=emulator.port_name)})
-        backend = DynamixelBackend(config, robot.kd, body_sensors=emulator.body_state)
+        backend = DynamixelBackend(config, robot.kd, body_sensors=emulator.body_state, effort=robot.effort)
     hw = SafetyLayer(backend, limits, clock=emulator.clock)
     hw.start_watchdog()  # a bus has no lock-step: a stalled controller must be caught from outside
     try:
@@ -106,7 +106,7 @@ def _bus_backend(kind: HardwareKind, robot: RobotModel, bus_config: str | None):
         return MitCanBackend(config, robot.kd)
     from robot_ctrl.hw.dynamixel_backend import DynamixelBackend
 
-    return DynamixelBackend(config, robot.kd)
+    return DynamixelBackend(config, robot.kd, effort=robot.effort)
 
 
 @contextmanager

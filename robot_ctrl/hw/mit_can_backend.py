@@ -1,6 +1,9 @@
 """MitCanBackend: joints driven by MIT-style CAN servos (``mit_protocol``) over python-can.
 
-Lifecycle: ``configure`` opens one python-can bus per bus in the YAML; ``activate`` sends the
+Lifecycle: ``configure`` opens one python-can bus per bus in the YAML and sets the drive-side
+timeout where the drive has one (Damiao: register TIMEOUT written and read back, so a dead host
+process leaves the motor disabled after the bus config's ``drive_timeout_s``; a drive that does
+not confirm it fails the configuration); ``activate`` sends the
 enter-motor-mode frame to every motor and takes their replies as the first state; ``write`` sends
 one command frame per motor (joint side converted to motor side, see ``bus_config``); ``read``
 collects the replies that command caused (each motor answers every frame it receives) and
@@ -20,6 +23,11 @@ as many enable frames (after disabling them all again). Frames still queued when
 go out came after their own tick's wait: they are dropped (``late_replies``), not read as this
 tick's. The state's time advances when any motor answered; when none did it
 stays, and the safety layer sees a stale state.
+
+Reply formats (``mit_protocol``, per motor model): 6-byte mini-cheetah replies carry no
+temperature or fault; CubeMars and Damiao 8-byte replies do. The state's ``temperature`` is
+reported when every motor's format carries one. A fault code, or a Damiao drive that says it is
+disabled while it should be enabled (its CAN timeout expired, say), raises naming the joint.
 """
 
 from __future__ import annotations
@@ -32,12 +40,29 @@ import numpy as np
 
 from robot_ctrl.hw.adapter import HardwareAdapter
 from robot_ctrl.hw.bus_config import BusConfig
-from robot_ctrl.hw.mit_protocol import DISABLE, ENABLE, SET_ZERO, MitRanges, pack_command, unpack_reply
+from robot_ctrl.hw.mit_protocol import (
+                                        DISABLE,
+                                        ENABLE,
+                                        PARAM_CAN_ID,
+                                        PARAM_READ,
+                                        PARAM_WRITE,
+                                        SET_ZERO,
+                                        TIMEOUT_REGISTER,
+                                        TIMEOUT_UNIT,
+                                        MitRanges,
+                                        pack_command,
+                                        param_frame,
+                                        reply_motor_id,
+                                        unpack_param,
+                                        unpack_reply,
+)
 from robot_ctrl.hw.types import JointCommand, JointState
 
 #: [s] Replies follow each other back to back once they come (0.13 ms per frame at 1 Mbit/s): after
 #: this long without one, the rest of the bus's motors missed theirs.
 REPLY_GAP = 0.002
+#: [s] how long ``configure`` waits for the drives to answer a register read or write
+PARAM_WAIT = 0.1
 
 
 class MitCanBackend(HardwareAdapter):
@@ -52,11 +77,15 @@ class MitCanBackend(HardwareAdapter):
         self.reply_timeout = config.reply_timeout
         self.clock = clock
         self.ranges = [MitRanges.from_dict(config.models[m.model]) for m in config.motors]
+        self.formats = [config.reply_format(m) for m in config.motors]
+        self._bus_format = {m.bus: f for m, f in zip(config.motors, self.formats)}  # one format per bus
         self._index = {(m.bus, m.id): i for i, m in enumerate(config.motors)}
         self._buses: dict[str, can.BusABC] = {}
         self._p = np.zeros(self.nj)  # motor side
         self._v = np.zeros(self.nj)
         self._t = np.zeros(self.nj)
+        self._temperature = np.full(self.nj, np.nan)  # [°C] where the format reports it
+        self._faults: dict[int, str] = {}
         self._time = None
         self._body: JointState | None = None
         self.missing_replies = 0
@@ -68,12 +97,55 @@ class MitCanBackend(HardwareAdapter):
     def _on_configure(self) -> None:
         for name, options in self.config.buses.items():
             self._buses[name] = can.Bus(**options)
+        self._set_drive_timeouts()
+
+    @property
+    def drive_timeout_joints(self) -> tuple[str, ...]:
+        """Joints whose drive disables itself when the host stops sending (Damiao: ``drive_timeout_s``)."""
+        return tuple(m.joint for m, f in zip(self.config.motors, self.formats) if f == "damiao")
+
+    def _set_drive_timeouts(self) -> None:
+        """Write the Damiao drives' TIMEOUT register and read it back; fail naming the drives that
+        did not confirm it."""
+        motors = [i for i, f in enumerate(self.formats) if f == "damiao"]
+        if not motors:
+            return
+        counts = round(self.config.drive_timeout / TIMEOUT_UNIT)
+        for op in (PARAM_WRITE, PARAM_READ):
+            for i in motors:
+                m = self.config.motors[i]
+                self._buses[m.bus].send(can.Message(arbitration_id=PARAM_CAN_ID, is_extended_id=False,
+                                                    data=param_frame(m.id, op, TIMEOUT_REGISTER, counts)))
+            confirmed = self._collect_params(motors, op, counts)
+        unconfirmed = np.zeros(self.nj, dtype=bool)
+        unconfirmed[[i for i in motors if i not in confirmed]] = True
+        if unconfirmed.any():
+            raise RuntimeError(f"{self._joints(unconfirmed)} did not confirm their CAN timeout "
+                               f"({self.config.drive_timeout} s): check their power, wiring and CAN ids")
+
+    def _collect_params(self, motors: list[int], op: int, value: int) -> set[int]:
+        """The motors among ``motors`` that answered register operation ``op`` with ``value``."""
+        confirmed: set[int] = set()
+        deadline = time.monotonic() + PARAM_WAIT
+        for name, bus in self._buses.items():
+            expected = {i for i in motors if self.config.motors[i].bus == name}
+            while expected - confirmed and (remaining := deadline - time.monotonic()) > 0:
+                msg = bus.recv(timeout=remaining)
+                answer = None if msg is None else unpack_param(bytes(msg.data))
+                if answer is None:
+                    continue
+                i = self._index.get((name, answer[0]))
+                if i in expected and answer[1:] == (op, TIMEOUT_REGISTER, value):
+                    confirmed.add(i)
+        return confirmed
 
     def _on_activate(self) -> None:
+        self._drain()  # register answers still queued from configure
+        self._faults.clear()
         silent = np.ones(self.nj, dtype=bool)
         for _ in range(self.config.max_missed_replies + 1):  # a lost frame is asked again
             self._broadcast(ENABLE, silent)
-            silent &= ~self._collect(silent)
+            silent &= ~self._collect(silent, expect_enabled=True)
             if not silent.any():
                 break
         if silent.any():
@@ -81,18 +153,22 @@ class MitCanBackend(HardwareAdapter):
             self._collect()
             raise RuntimeError(f"no reply from {self._joints(silent)} on enable: check their power, wiring and "
                                "CAN ids (all motors disabled again)")
+        if self._faults:
+            self._broadcast(DISABLE)
+            self._collect()
+            self._raise_faults()
 
     def _on_deactivate(self) -> None:
         self._broadcast(DISABLE)
         self._collect()
+        self._faults.clear()
 
     def _on_estop(self) -> None:
         if not self._buses:
             return
         q, _, _ = self.config.to_joint(self._p, self._v, self._t)
         zero = np.zeros(self.nj)
-        self._send_commands(JointCommand(q=q, dq=zero, kp=zero, kd=self.kd_damping, tau_ff=zero))
-        self._collect()
+        self._send_commands(JointCommand(q=q, dq=zero, kp=zero, kd=self.kd_damping, tau_ff=zero), check=False)
 
     def _on_close(self) -> None:
         for bus in self._buses.values():
@@ -114,9 +190,13 @@ class MitCanBackend(HardwareAdapter):
     def _read(self) -> JointState:
         q, dq, tau = self.config.to_joint(self._p, self._v, self._t)
         fields = self._body.body_fields() if self._body is not None else {}
-        return JointState(t=self._time if self._time is not None else 0.0, q=q, dq=dq, tau=tau, **fields)
+        temperature = self._temperature.copy() if np.isfinite(self._temperature).all() else None
+        return JointState(t=self._time if self._time is not None else 0.0, q=q, dq=dq, tau=tau,
+                          temperature=temperature, **fields)
 
-    def _send_commands(self, cmd: JointCommand) -> None:
+    def _send_commands(self, cmd: JointCommand, check: bool = True) -> None:
+        """Send ``cmd`` and take the replies; with ``check``, a drive fault, a bus-off or a motor
+        past ``max_missed_replies`` raises."""
         self._drain()
         off = [name for name, bus in self._buses.items() if bus.state is can.BusState.ERROR]
         if off:
@@ -126,11 +206,20 @@ class MitCanBackend(HardwareAdapter):
         for i, m in enumerate(self.config.motors):
             data = pack_command(p[i], v[i], kp[i], kd[i], t[i], self.ranges[i])
             self._buses[m.bus].send(can.Message(arbitration_id=m.id, data=data, is_extended_id=False))
-        replied = self._collect()
+        replied = self._collect(expect_enabled=True)
+        if not check:
+            self._faults.clear()
+            return
+        self._raise_faults()
         self.missed = np.where(replied, 0, self.missed + 1)
         lost = self.missed > self.config.max_missed_replies
         if lost.any():
             raise RuntimeError(f"{self._joints(lost)} missed more than {self.config.max_missed_replies} replies in a row")
+
+    def _raise_faults(self) -> None:
+        faults, self._faults = self._faults, {}
+        if faults:
+            raise RuntimeError("drive fault: " + ", ".join(f"{self.config.motors[i].joint}: {f}" for i, f in faults.items()))
 
     def _drain(self) -> None:
         """Drop the frames that came after the last wait ended: read as this tick's replies, they
@@ -147,9 +236,10 @@ class MitCanBackend(HardwareAdapter):
             if motors is None or motors[i]:
                 self._buses[m.bus].send(can.Message(arbitration_id=m.id, data=frame, is_extended_id=False))
 
-    def _collect(self, asked: np.ndarray | None = None) -> np.ndarray:
+    def _collect(self, asked: np.ndarray | None = None, expect_enabled: bool = False) -> np.ndarray:
         """Receive one reply per motor ``asked`` (default all; or time out); if any came, advance
-        the state's time. Returns which motors replied."""
+        the state's time. Faults the replies report (and, with ``expect_enabled``, drives that say
+        they are disabled) are kept in ``_faults``. Returns which motors replied."""
         asked = np.ones(self.nj, dtype=bool) if asked is None else asked
         replied = np.zeros(self.nj, dtype=bool)
         deadline = self.clock() + self.reply_timeout
@@ -165,12 +255,19 @@ class MitCanBackend(HardwareAdapter):
                 if msg.is_error_frame:
                     self.error_frames += 1
                     continue
-                if len(msg.data) != 6:
-                    continue
-                i = self._index.get((name, msg.data[0]))
+                data = bytes(msg.data)
+                fmt = self._bus_format.get(name, "mit6")
+                i = self._index.get((name, reply_motor_id(data, fmt)))
                 if i is None or replied[i]:
                     continue
-                _, self._p[i], self._v[i], self._t[i] = unpack_reply(bytes(msg.data), self.ranges[i])
+                reply = unpack_reply(data, self.ranges[i], fmt)
+                self._p[i], self._v[i], self._t[i] = reply.position, reply.velocity, reply.torque
+                if reply.temperature is not None:
+                    self._temperature[i] = reply.temperature
+                if reply.fault is not None:
+                    self._faults[i] = reply.fault
+                elif expect_enabled and reply.enabled is False:
+                    self._faults[i] = "disabled itself"
                 replied[i] = True
                 got += 1
         if replied.any():

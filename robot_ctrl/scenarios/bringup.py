@@ -23,13 +23,16 @@ from robot_ctrl.robot.model import RobotModel
 HOLD_S = 1.0  # [s] the posture is held after a move before the command ends
 
 
-def scan(hw: SafetyLayer) -> dict:
-    """Enable every motor and read back: a silent one fails ``activate`` with its joint's name."""
+def scan(robot: RobotModel, hw: SafetyLayer) -> dict:
+    """Enable every motor and read back: a silent one fails ``activate`` with its joint's name. Also
+    which drives stop by themselves if the host dies, and which hold their last command."""
     hw.configure()
     hw.activate()
     hw.read()
     hw.deactivate()
-    return {"motors": hw.nj, "answering": hw.nj}
+    stopping = hw.backend.drive_timeout_joints
+    return {"motors": hw.nj, "answering": hw.nj, "stop_without_host": f"{len(stopping)} of {hw.nj} joints",
+            "hold_last_command_without_host": [j for j in robot.joint_names if j not in stopping]}
 
 
 def read(robot: RobotModel, hw: SafetyLayer) -> list[dict]:
@@ -54,7 +57,7 @@ def read(robot: RobotModel, hw: SafetyLayer) -> list[dict]:
 
 def check(robot: RobotModel, hw: SafetyLayer, params: StartParams = StartParams()) -> dict:
     """``scan``, then whether the measured posture is one ``stand`` may start from."""
-    result = scan(hw)
+    result = scan(robot, hw)
     state = hw.read()
     try:
         StartSequence(robot, state, params=params)
