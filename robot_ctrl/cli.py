@@ -36,8 +36,25 @@ def _log(line: str) -> None:
     tqdm.write(line)
 
 
+def _check_log_path(args: argparse.Namespace) -> None:
+    """Refuse a ``--log`` that cannot be written, before anything runs."""
+    path = getattr(args, "log", None)
+    if path is None:
+        return
+    folder = path.parent if str(path.parent) else Path(".")
+    if path.is_dir():
+        raise ConfigError(f"--log {path} is a folder: give a file name")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError(f"--log {path}: cannot create {folder} ({exc.strerror})") from exc
+    if not os.access(folder, os.W_OK):
+        raise ConfigError(f"--log {path}: {folder} is not writable")
+
+
 def _check_outputs(args: argparse.Namespace) -> None:
     """Refuse a viewer without a display and a video without an offscreen renderer, before anything runs."""
+    _check_log_path(args)
     if args.viewer and sys.platform.startswith("linux") and not (os.environ.get("DISPLAY") or
                                                                  os.environ.get("WAYLAND_DISPLAY")):
         raise ConfigError("--viewer needs a display, and neither DISPLAY nor WAYLAND_DISPLAY is set "
@@ -69,6 +86,37 @@ def _simulation(args: argparse.Namespace):
         raise ConfigError(f"--hw {args.hw}: {exc}") from exc
 
 
+def _log_command(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from robot_ctrl.eval.html_report import render_report
+    from robot_ctrl.eval.report_file import write_report
+    from robot_ctrl.eval.tick_log import log_report, log_series, read_tick_log
+
+    if not args.file.is_file():
+        raise ConfigError(f"log: {args.file} does not exist")
+    try:
+        log = read_tick_log(args.file)
+        report = log_report(log)
+    except (OSError, ValueError) as exc:
+        raise ConfigError(f"log: {exc}") from exc
+    out = args.out if args.out is not None else args.file.with_suffix("")
+    if out.exists() and not out.is_dir():
+        raise ConfigError(f"log: --out {out} is a file, not a folder")
+    write_report(report, out, _log)
+    np.savez_compressed(out / "timeseries.npz", **log_series(log))
+    _log(f"wrote {out / 'timeseries.npz'}")
+    _log(f"wrote {render_report(out)}")
+    return 0
+
+
+def _tick_log(args: argparse.Namespace, robot, hw, control_dt: float, pacer=None):
+    """The run's tick log (``--log FILE``) as extra recorders, closed with the run."""
+    from robot_ctrl.eval.tick_log import open_tick_log
+
+    return open_tick_log(args.log, robot, hw, control_dt, pacer)
+
+
 def _finish(args: argparse.Namespace, report: dict) -> int:
     if args.video is not None:
         _log(f"wrote {args.video}")
@@ -76,12 +124,13 @@ def _finish(args: argparse.Namespace, report: dict) -> int:
 
 
 def _balance(args: argparse.Namespace) -> int:
+    from robot_ctrl.control.balance_controller import BalanceParams
     from robot_ctrl.scenarios.balance import run_balance
 
     robot, disturbances, hardware = _simulation(args)
-    with hardware as hw:
+    with hardware as hw, _tick_log(args, robot, hw, BalanceParams.control_dt) as recorders:
         report = run_balance(robot, hw, out_dir=args.out, log=_log, progress=not args.quiet,
-                             disturbances=disturbances)
+                             disturbances=disturbances, recorders=recorders)
     return _finish(args, report)
 
 
@@ -102,9 +151,9 @@ def _walk(args: argparse.Namespace) -> int:
                             dynfilter=FilterMode(args.dynfilter), dynfilter_passes=args.dynfilter_passes,
                             dynfilter_worker=not args.dynfilter_inline, base_state=BaseState(args.base_state))
     robot, disturbances, hardware = _simulation(args)
-    with hardware as hw:
+    with hardware as hw, _tick_log(args, robot, hw, settings.control_dt) as recorders:
         report = run_walk(robot, hw, goal, settings, out_dir=args.out, log=_log, progress=not args.quiet,
-                          disturbances=disturbances)
+                          disturbances=disturbances, recorders=recorders)
     return _finish(args, report)
 
 
@@ -126,9 +175,9 @@ def _drawer(args: argparse.Namespace) -> int:
     primitives = load_primitives(robot)
     args.drawer = DrawerPlacement(task.distance, task.slot, tuple((j.time, j.distance) for j in jumps))
     robot, disturbances, hardware = _simulation(args)
-    with hardware as hw:
+    with hardware as hw, _tick_log(args, robot, hw, task.control_dt) as recorders:
         report = run_drawer(robot, hw, primitives, task, out_dir=args.out, log=_log, progress=not args.quiet,
-                            disturbances=disturbances)
+                            disturbances=disturbances, recorders=recorders)
     if args.out is not None:
         from robot_ctrl.eval.html_report import render_report
 
@@ -506,6 +555,7 @@ def _add_balance(sub, sim) -> None:
                                    "up 5 cm and back, CoM back, right-hand reach to (0.4, -0.2, 0.8) m in the start "
                                    "floor frame and back. Exit status 1 if the robot fell.")
     p.add_argument("--out", type=Path, help="write DIR/report.json")
+    _log_arg(p)
     p.set_defaults(run=_balance)
 
 
@@ -529,6 +579,7 @@ def _add_walk(sub, sim) -> None:
                         "computed for (default: in a worker process on another core, one 0.1 s sample behind)")
     _base_state_arg(p)
     p.add_argument("--out", type=Path, help="write DIR/report.json and DIR/timeseries.npz")
+    _log_arg(p)
     p.set_defaults(run=_walk)
 
 
@@ -546,7 +597,14 @@ def _add_drawer(sub, sim) -> None:
                    help="dynamic filter: off, legs only, or full body (default)")
     _base_state_arg(p)
     p.add_argument("--out", type=Path, help="write DIR/report.json, DIR/timeseries.npz and DIR/report.html")
+    _log_arg(p)
     p.set_defaults(run=_drawer)
+
+
+def _log_arg(p) -> None:
+    p.add_argument("--log", type=Path, metavar="FILE",
+                   help="write a per-tick binary log (state, command, safety, bus, timing); robot-ctrl log FILE "
+                        "turns it into a report")
 
 
 def _base_state_arg(p) -> None:
@@ -703,6 +761,15 @@ def _add_tools(sub) -> None:
                                    "and footprints, joint torque peaks against limits, GRF against time.")
     p.add_argument("dir", type=Path, help="a run's output folder (--out of balance or walk)")
     p.set_defaults(run=_report)
+    p = sub.add_parser("log", help="turn a tick log (--log FILE of a run) into report.json and report.html",
+                       description="Reads a per-tick binary log written with --log by walk, drawer, balance or hw "
+                                   "stand/jog (simulated, emulated or real servos) and writes DIR/report.json (falls "
+                                   "where the base was measured, peak torques, command tracking, safety "
+                                   "interventions, bus statistics, loop timing), DIR/timeseries.npz and "
+                                   "DIR/report.html.")
+    p.add_argument("file", type=Path, help="the log")
+    p.add_argument("--out", type=Path, help="output folder (default: the log's name without suffix, beside it)")
+    p.set_defaults(run=_log_command)
     p = sub.add_parser("robots", help="list the robot configs (and convert their MJCF with --convert)")
     p.add_argument("--convert", action="store_true", help="convert each robot to its cached MJCF and print the path")
     p.set_defaults(run=_robots)
@@ -724,6 +791,7 @@ def _add_hw(sub, robot) -> None:
     p.add_argument("--bus-config", help="bus mapping (configs/hw name or YAML path); required for real servos")
     p.add_argument("--duration", type=float, default=4.0, help="stand, jog: the move's duration [s], 0.5..60")
     p.add_argument("--gain-scale", type=float, default=0.3, help="stand, jog: share of the servo stiffness, 0.01..1")
+    _log_arg(p)
     p.set_defaults(run=_hw)
 
 
@@ -745,6 +813,7 @@ def _hw(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise ConfigError(_named(str(exc).replace("StartParams.", ""), {"duration": "--duration",
                                                                         "gain_scale": "--gain-scale"})) from exc
+    _check_log_path(args)
     kind = HardwareKind.parse(args.hw)
     if args.action == "zero" and kind not in (HardwareKind.MIT_CAN, HardwareKind.MIT_CAN_EMULATED):
         raise ConfigError(f"hw zero sets an MIT drive's encoder zero; with --hw {kind.value} put the joint's "
@@ -764,7 +833,8 @@ def _hw(args: argparse.Namespace) -> int:
             pacer = Pacer(params.control_dt) if kind.real else None
             if pacer is not None and not Pacer.request_realtime():
                 print("robot-ctrl: no real-time scheduling (SCHED_FIFO not permitted); timing in the report")
-            result = bringup.move(robot, hw, target, params, pacer)
+            with _tick_log(args, robot, hw, params.control_dt, pacer) as recorders:
+                result = bringup.move(robot, hw, target, params, pacer, recorders)
     for key, value in result.items():
         print(f"{key}: {value}")
     return 0 if result.get("reached", True) else 3

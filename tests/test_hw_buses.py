@@ -243,6 +243,28 @@ def test_missed_replies_hold_the_last_value_then_fault_into_damping(talos, mit):
     assert hw.state is LifecycleState.ACTIVE and hw.backend.missed.max() == 0
 
 
+def test_the_tick_log_records_missed_replies_and_safety_interventions(talos, mit, tmp_path):
+    from robot_ctrl.control.loop import Tick
+    from robot_ctrl.eval.tick_log import TickLogWriter, log_report, read_tick_log
+
+    hw, emulator, clock, state = mit
+    writer = TickLogWriter(tmp_path / "bus.log", talos, hw, DT)
+    knee = talos.joint_names.index("leg_left_4_joint")
+    for k in range(40):
+        emulator.silent = {knee} if k in (20, 21) else set()
+        q = state.q.copy()
+        q[0] += 0.5 if k == 30 else 0.0  # a step the layer limits
+        command = hold(talos, state, q=q)
+        writer.on_command(Tick(k, k * DT, [state], [command]))
+        state = tick(hw, clock, command)
+        writer.on_state(Tick(k, k * DT, [state], [command]))
+    writer.close()
+    report = log_report(read_tick_log(tmp_path / "bus.log"))
+    assert report["ticks"] == 41 and report["base_measured"] is True
+    assert report["bus"]["missing_replies"] == 2 and report["bus"]["longest_miss_streak"] == {"leg_left_4_joint": 2}
+    assert report["safety"]["interventions"] == dict(hw.interventions) and "position_step_limited" in hw.interventions
+
+
 def test_a_late_reply_is_dropped_not_read_as_the_next_ticks(talos, mit):
     import can
 
@@ -282,6 +304,51 @@ def test_close_sends_damping_then_disables_every_motor(talos, mit):
     last = emulator.received[-1][1]
     assert np.all(last.kp == 0) and np.abs(last.tau_ff).max() < 0.1  # damping (zero within a 12-bit step)
     assert not emulator.enabled.any()
+
+
+def test_estop_with_a_failing_bus_still_latches(talos, mit, monkeypatch):
+    import can
+
+    hw, emulator, clock, state = mit
+    for _ in range(5):
+        state = tick(hw, clock, hold(talos, state))
+
+    def broken(self, msg, timeout=None):
+        raise can.CanOperationError("Transmit buffer full")
+
+    monkeypatch.setattr(type(hw.backend._buses["can0"]), "send", broken)
+    with pytest.raises(can.CanOperationError):
+        hw.estop()
+    assert hw.state is LifecycleState.ESTOP and hw.backend.state is LifecycleState.ESTOP
+    with pytest.raises(LifecycleError):
+        hw.write(hold(talos, state))
+
+
+def test_ctrl_c_mid_walk_sends_damping_then_disables(monkeypatch, capsys):
+    """Ctrl-C during a walk over the emulated MIT bus: exit status 130, and the last frames the
+    motors got were damping (kp = 0), then disable."""
+    import os
+    import signal
+
+    emulators = []
+    original = MitCanEmulator.__init__
+
+    def recorded(self, *args, **kwargs):
+        original(self, *args, **kwargs)
+        emulators.append(self)
+
+    monkeypatch.setattr(MitCanEmulator, "__init__", recorded)
+    timer = threading.Timer(8.0, os.kill, (os.getpid(), signal.SIGINT))
+    timer.start()
+    try:
+        assert main(["walk", "--distance", "3", "--hw", "mit-can-emulated", "--quiet"]) == 130
+    finally:
+        timer.cancel()
+    assert capsys.readouterr().err.strip().splitlines()[-1] == "robot-ctrl: interrupted"
+    (emulator,) = emulators
+    t_last, last = emulator.received[-1]
+    assert t_last > 0.5 and np.all(last.kp == 0) and last.kd.max() > 0  # walking, then damping
+    assert np.any(emulator.received[-2][1].kp > 0) and not emulator.enabled.any()  # ... then disabled
 
 
 def test_estop_latches_until_reset(talos, mit):

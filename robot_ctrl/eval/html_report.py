@@ -2,7 +2,7 @@
 wrote one) into a self-contained ``DIR/report.html``: a metrics table and matplotlib figures
 embedded as PNG data, no network resources.
 
-Figures: ZMP reference vs measured (x and y, world frame, against time, single-support phases
+Figures: the tick log's (``log_figures``) for ``robot-ctrl log``; ZMP reference vs measured (x and y, world frame, against time, single-support phases
 shaded); top view of the planned and measured CoM paths with the planned and realized footprints
 (start frame); peak |torque| per joint against its limit; vertical ground reaction force per foot
 against time with the limit line; for the drawer task, ``drawer_figures``.
@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from robot_ctrl.eval.drawer_figures import drawer_figures
+from robot_ctrl.eval.log_figures import log_figures
 
 SUMMARY_KEYS = ("fell", "fall_time_s", "fall_reason", "time_s", "final_position_error_m", "final_yaw_error_deg",
                 "hand_error_m", "zmp_in_support_ratio", "zmp_error_rms_m", "zmp_error_max_m", "zmp_lateral_std_m",
@@ -28,7 +29,10 @@ SUMMARY_KEYS = ("fell", "fall_time_s", "fall_reason", "time_s", "final_position_
                 "success", "distance_m", "slot", "goal_jumps", "actions", "planned_step_lengths_m",
                 "realized_step_lengths_m", "step_length_error_max_m", "comfort_distance_m", "final_pelvis_to_drawer_m",
                 "drawer_opening_m", "drawer_opening_required_m", "drawer_pull_force_peak_n", "grasp", "hand_to_handle_m",
-                "hand_to_object_m", "hand_to_object_synth_only_m", "peak_ankle_pitch_torque_ratio")
+                "hand_to_object_m", "hand_to_object_synth_only_m", "peak_ankle_pitch_torque_ratio",
+                # a tick log (robot-ctrl log)
+                "ticks", "tracking_error_rms_rad", "tracking_error_max_rad", "tracking_error_max_joint", "safety",
+                "bus", "timing")
 
 
 def render_report(run_dir: Path) -> Path:
@@ -43,14 +47,17 @@ def render_report(run_dir: Path) -> Path:
     figures = []
     series_path = run_dir / "timeseries.npz"
     series = dict(np.load(series_path)) if series_path.is_file() else None
-    if series is not None:
+    walked = series is not None and "zmp" in series
+    if walked:
         figures.append(("ZMP: reference vs measured", _zmp_figure(series)))
         figures.append(("Top view: CoM and footprints (start frame)", _top_view(series, report)))
     if "peak_torque_nm" in report and "torque_limit_nm" in report:
         figures.append(("Peak joint torques against their limits", _torque_figure(report)))
-    if series is not None:
+    if walked:
         figures.append(("Vertical ground reaction forces", _grf_figure(series)))
         figures.extend(drawer_figures(series, report))
+    if series is not None:
+        figures.extend(log_figures(series))
     rows = "".join(f"<tr><th>{html.escape(k)}</th><td>{html.escape(_fmt(report[k]))}</td></tr>"
                    for k in SUMMARY_KEYS if k in report)
     body = "".join(f'<h2>{html.escape(title)}</h2><img alt="{html.escape(title)}" src="data:image/png;base64,{png}">'

@@ -15,6 +15,8 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 
+import numpy as np
+
 from robot_ctrl.hw.types import JointCommand, JointState, LifecycleState
 
 S = LifecycleState
@@ -34,6 +36,12 @@ class HardwareAdapter(ABC):
         self.nj = nj
         self._state = S.UNCONFIGURED
         self._closed = False
+        # Bus statistics (they stay zero where there is no bus): replies missed in all, per motor in a
+        # row, replies that came after their tick's wait, error frames.
+        self.missing_replies = 0
+        self.missed = np.zeros(nj, dtype=int)
+        self.late_replies = 0
+        self.error_frames = 0
 
     @property
     def state(self) -> LifecycleState:

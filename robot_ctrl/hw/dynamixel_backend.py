@@ -12,9 +12,10 @@ PWM), with return delay 0 and no motion profile (the goal is taken at once), eac
 servo that refuses (a model without mode 5) fails the configuration, naming its joint.
 ``activate`` refuses a servo in hardware error, writes its Goal Current (the servo's torque limit:
 its joint's ``effort`` through the gear and torque constant, at most its Current Limit), P = 0,
-D = ``kd_damping`` and goal = present position, then clears and arms each servo's Bus Watchdog
-(``watchdog_ms``) and enables torque (so torque comes on soft and where the servo is); ``deactivate`` disables torque; ``estop`` writes P = 0
-and D = ``kd_damping`` (damping mode).
+D = ``kd_damping`` and goal = present position, then clears each servo's Bus Watchdog, enables
+torque (so torque comes on soft and where the servo is) and arms the watchdog (``watchdog_ms``,
+read back); ``deactivate`` disables torque; ``estop`` writes P = 0 and D = ``kd_damping`` (damping
+mode).
 
 A Dynamixel takes a position goal and gains, not a velocity or torque feedforward. The servo law
 ``kp (q_d − q) + kd (dq_d − dq) + τ_ff`` is kept exactly by folding the feedforward into the goal:
@@ -70,7 +71,6 @@ class DynamixelBackend(HardwareAdapter):
         self._gains: tuple | None = None
         self._time = None
         self._body: JointState | None = None
-        self.missing_replies = 0
         self._port = None
         self._ticks = 0
 
@@ -119,8 +119,8 @@ class DynamixelBackend(HardwareAdapter):
         result, error = write(self._port, motor.id, address, value)
         if result != sdk.COMM_SUCCESS or error or self._read_register(motor, address, size) != value:
             raise OSError(f"{motor.joint} (servo {motor.id}) does not take {value} at address {address} "
-                          f"({self._packet.getTxRxResult(result)}, error {error}): current-based position mode (5), "
-                          "return delay 0 and no profile are needed (an X-series servo with mode 5, torque off)")
+                          f"({self._packet.getTxRxResult(result)}, error {error}): it needs current-based position "
+                          "mode (5), return delay 0, no profile and its bus watchdog (an X-series servo)")
 
     def _read_register(self, motor, address: int, size: int) -> int:
         read = {1: self._packet.read1ByteTxRx, 2: self._packet.read2ByteTxRx, 4: self._packet.read4ByteTxRx}[size]
@@ -136,10 +136,10 @@ class DynamixelBackend(HardwareAdapter):
         self._on_estop()  # P = 0, D = damping, goal = present position: torque comes on soft, in place
         for m, current in zip(self.config.motors, self.goal_current):
             self._set(m, dxl.GOAL_CURRENT, int(current), 2)  # the servo's torque limit: its joint's effort
-        for servo in self.ids:
-            self._write_byte(servo, dxl.BUS_WATCHDOG, 0)  # clears a tripped watchdog
-            self._write_byte(servo, dxl.TORQUE_ENABLE, 1)
-            self._write_byte(servo, dxl.BUS_WATCHDOG, self.watchdog_units)
+        for m in self.config.motors:
+            self._write_byte(m.id, dxl.BUS_WATCHDOG, 0)  # clears a tripped watchdog
+            self._write_byte(m.id, dxl.TORQUE_ENABLE, 1)
+            self._set(m, dxl.BUS_WATCHDOG, self.watchdog_units, 1)  # read back: a dead host leaves it limp
         self._sync_read()
         self._ticks = 0
 

@@ -88,10 +88,6 @@ class MitCanBackend(HardwareAdapter):
         self._faults: dict[int, str] = {}
         self._time = None
         self._body: JointState | None = None
-        self.missing_replies = 0
-        self.late_replies = 0  # frames dropped because their tick's wait had ended
-        self.error_frames = 0  # CAN error frames received
-        self.missed = np.zeros(self.nj, dtype=int)  # replies missed in a row, per motor
 
     # Lifecycle hooks ------------------------------------------------------------------------------
     def _on_configure(self) -> None:

@@ -121,6 +121,12 @@ class SafetyLimits:
                    kd_max=ratio * robot.kd, control_dt=control_dt, **overrides)
 
 
+#: Every kind of intervention the layer counts (``SafetyLayer.interventions``), in a fixed order.
+INTERVENTIONS = ("estop", "bad_measurement", "backend_fault", "watchdog", "stale_state", "rejected_command",
+                 "temperature_warn", "temperature_derate", "temperature_fault", "gain_clamped", "position_clamped",
+                 "position_step_limited", "velocity_clamped", "torque_clamped")
+
+
 class SafetyLayer(HardwareAdapter):
     def __init__(self, backend: HardwareAdapter, limits: SafetyLimits,
                  clock: Callable[[], float] | None = time.monotonic):

@@ -5,7 +5,7 @@ the measured hand error at the end of the reach's hold."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Sequence
 
 import numpy as np
 import pinocchio as pin
@@ -49,9 +49,9 @@ class HandError:
 
 def run_balance(robot: RobotModel, hw: SafetyLayer, params: BalanceParams = BalanceParams(),
                 out_dir: Path | None = None, log: Callable[[str], None] = print, progress: bool = False,
-                disturbances: Disturbances = Disturbances()) -> dict:
+                disturbances: Disturbances = Disturbances(), recorders: Sequence = ()) -> dict:
     """Run the balance demo on ``hw`` (from :func:`robot_ctrl.hw.hardware.open_hardware`); return
-    (and write to ``out_dir``) the report."""
+    (and write to ``out_dir``) the report; ``recorders`` (a tick log) see every tick."""
     dt = params.control_dt
     hw.configure()
     hw.activate()
@@ -62,7 +62,7 @@ def run_balance(robot: RobotModel, hw: SafetyLayer, params: BalanceParams = Bala
     metrics = RunMetrics(robot.joint_names, robot.effort, FallCriterion(float(state.base_pos[2])))
     hand = HandError(controller, log)
     bar = ProgressBar(controller.duration, progress)
-    loop = ControlLoop([hw], [controller], dt, recorders=[MetricsRecorder([metrics]), hand, bar],
+    loop = ControlLoop([hw], [controller], dt, recorders=[MetricsRecorder([metrics]), hand, bar, *recorders],
                        stops=[Fell([metrics]), TimeLimit(controller.duration - dt / 2, "motion done:")])
     try:
         result = loop.run([state])

@@ -7,7 +7,7 @@ A start refused or a tracking fault is a :class:`~robot_ctrl.hw.adapter.Hardware
 
 from __future__ import annotations
 
-from typing import Callable
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -69,9 +69,10 @@ def check(robot: RobotModel, hw: SafetyLayer, params: StartParams = StartParams(
 
 
 def move(robot: RobotModel, hw: SafetyLayer, target: Callable[[np.ndarray], np.ndarray] | None = None,
-         params: StartParams = StartParams(), pacer: Pacer | None = None) -> dict:
+         params: StartParams = StartParams(), pacer: Pacer | None = None, recorders: Sequence = ()) -> dict:
     """The start sequence from the measured posture to ``target(measured q)`` (default
-    half-sitting), then ``HOLD_S`` of holding; ``pacer`` on real hardware."""
+    half-sitting), then ``HOLD_S`` of holding; ``pacer`` on real hardware; ``recorders`` (a tick
+    log) see every tick."""
     hw.configure()
     hw.activate()
     state = hw.read()
@@ -79,7 +80,7 @@ def move(robot: RobotModel, hw: SafetyLayer, target: Callable[[np.ndarray], np.n
         goal = np.array(robot.config.half_sitting) if target is None else target(np.asarray(state.q, dtype=float))
         sequence = StartSequence(robot, state, goal, params, upper_body_gravity(robot, goal))
         done = HeldFor(lambda: sequence.done, HOLD_S, "held the posture")
-        loop = ControlLoop([hw], [sequence], params.control_dt, stops=[
+        loop = ControlLoop([hw], [sequence], params.control_dt, recorders=recorders, stops=[
             done, TimeLimit(params.duration + HOLD_S + 1.0, "did not settle")], pacer=pacer)
         result = loop.run([state])
     except (StartRefused, TrackingFault) as exc:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Sequence
 
 from robot_ctrl.control.drawer_targets import DrawerTargets
 from robot_ctrl.control.loop import ControlLoop
@@ -66,8 +66,10 @@ class DrawerTask:
 
 def run_drawer(robot: RobotModel, hw: SafetyLayer, primitives: WalkReachPrimitives, task: DrawerTask,
                out_dir: Path | None = None, log: Callable[[str], None] = print, progress: bool = False,
-               disturbances: Disturbances = Disturbances(), geometry: DrawerGeometry = DrawerGeometry()) -> dict:
-    """Run ``task`` on ``hw`` (from ``open_hardware(..., drawer=...)``, which placed the cabinet)."""
+               disturbances: Disturbances = Disturbances(), recorders: Sequence = (),
+               geometry: DrawerGeometry = DrawerGeometry()) -> dict:
+    """Run ``task`` on ``hw`` (from ``open_hardware(..., drawer=...)``, which placed the cabinet);
+    ``recorders`` (a tick log) see every tick."""
     dt = task.control_dt
     hw.configure()
     hw.activate()
@@ -90,7 +92,7 @@ def run_drawer(robot: RobotModel, hw: SafetyLayer, primitives: WalkReachPrimitiv
     limit = 8.0 * max([task.distance] + [j.distance for j in task.jumps]) + 15.0
     bar = ProgressBar(limit / 2, progress)
     loop = ControlLoop([hw], [view.stepped], dt, commanders=[commander],
-                       recorders=[MetricsRecorder([metrics]), walk, drawer, bar, *view.recorders],
+                       recorders=[MetricsRecorder([metrics]), walk, drawer, bar, *view.recorders, *recorders],
                        stops=[Fell([metrics]), done, TimeLimit(limit, "the task did not end")])
     try:
         result = loop.run([state])

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Sequence
 
 from robot_ctrl.control.arm_swing import arm_motion
 from robot_ctrl.control.loop import ControlLoop
@@ -45,9 +45,9 @@ class WalkSettings:
 
 def run_walk(robot: RobotModel, hw: SafetyLayer, goal: WalkGoal, settings: WalkSettings = WalkSettings(),
              out_dir: Path | None = None, log: Callable[[str], None] = print, progress: bool = False,
-             disturbances: Disturbances = Disturbances()) -> dict:
+             disturbances: Disturbances = Disturbances(), recorders: Sequence = ()) -> dict:
     """Walk ``goal`` on ``hw`` (from :func:`robot_ctrl.hw.hardware.open_hardware`, which applied
-    ``disturbances``: the report lists them) and report."""
+    ``disturbances``: the report lists them) and report; ``recorders`` (a tick log) see every tick."""
     s, dt = settings, settings.control_dt
     hw.configure()
     hw.activate()
@@ -65,7 +65,7 @@ def run_walk(robot: RobotModel, hw: SafetyLayer, goal: WalkGoal, settings: WalkS
                                             s.grf_limit_ratio), start, log)
     stood = HeldFor(lambda: controller.standing and path.done, STAND_AFTER, "stood at the goal")
     bar = ProgressBar(path.duration + STAND_AFTER + 1.0, progress)
-    loop = ControlLoop([hw], [view.stepped], dt, recorders=[MetricsRecorder([metrics]), walk, bar, *view.recorders],
+    loop = ControlLoop([hw], [view.stepped], dt, recorders=[MetricsRecorder([metrics]), walk, bar, *view.recorders, *recorders],
                        stops=[Fell([metrics]), stood, TimeLimit(path.time_limit, "did not finish the path")])
     try:
         result = loop.run([state])

@@ -1,0 +1,45 @@
+"""The per-tick binary log (``--log``) and ``robot-ctrl log``: the report a log gives is the run's."""
+
+import json
+import re
+
+import numpy as np
+
+from robot_ctrl.cli import main
+from robot_ctrl.eval.tick_log import log_report, read_tick_log
+
+SAME = ("fell", "fall_time_s", "time_s", "peak_torque_ratio", "peak_torque_joint", "peak_torque_nm", "peak_grf_n")
+
+
+def test_a_walks_log_gives_the_runs_report(tmp_path, capsys):
+    run, log = tmp_path / "run", tmp_path / "logs" / "walk.log"
+    assert main(["walk", "--distance", "0.5", "--quiet", "--out", str(run), "--log", str(log)]) == 0
+    assert main(["log", str(log)]) == 0
+    walked = json.loads((run / "report.json").read_text())
+    logged = json.loads((tmp_path / "logs" / "walk" / "report.json").read_text())
+    assert {k: logged[k] for k in SAME} == {k: walked[k] for k in SAME}
+    records = read_tick_log(log).records
+    assert logged["ticks"] == len(records) == round(walked["time_s"] / 0.005) + 1  # every tick and the last state
+    assert np.all(np.diff(records["t"]) > 0) and np.all(np.isnan(records["cmd_q"][-1]))
+    assert 0 < logged["tracking_error_rms_rad"] < logged["tracking_error_max_rad"] < 0.05
+    assert logged["safety"] == {"interventions": {}, "final_mode": "normal", "damping_ticks": 0}
+    assert logged["base_measured"] is True and logged["timing"] is None  # a simulation keeps no deadlines
+    page = (tmp_path / "logs" / "walk" / "report.html").read_text()
+    assert re.findall(r'<img alt="([^"]+)"', page) == [
+        "Peak joint torques against their limits", "Command and measurement of the joints tracked worst",
+        "Joint torques relative to their limits (damping shaded)"]
+    # A run that died mid-write leaves a log readable up to its last whole record.
+    data = log.read_bytes()
+    log.write_bytes(data[: len(data) - records.itemsize // 2])
+    assert len(read_tick_log(log).records) == len(records) - 1
+    assert log_report(read_tick_log(log))["ticks"] == len(records) - 1
+
+
+def test_what_is_not_a_log_is_refused_in_one_line(tmp_path, capsys):
+    text = tmp_path / "notes.txt"
+    text.write_text("not a log\n")
+    assert main(["log", str(text)]) == 2
+    assert "is not a robot_ctrl tick log" in capsys.readouterr().err
+    assert main(["log", str(tmp_path / "missing.log")]) == 2
+    assert main(["walk", "--distance", "1", "--log", str(tmp_path)]) == 2
+    assert "is a folder" in capsys.readouterr().err
