@@ -374,13 +374,22 @@ def test_estop_latches_until_reset(talos, mit):
     assert np.all(emulator.received[-1][1].kp <= 0.06 * talos.kp + 3.0)  # soft start again
 
 
-def configured_dynamixel(talos, without_current_mode=()):
-    """The safety layer over the Dynamixel backend (configured, not active), the emulator on a pty, a fake clock."""
-    config = load_bus_config("talos_dynamixel", talos.joint_names)
+def two_ports(config):
+    """The legs on a port of their own, the rest of the robot on another."""
+    port = config.buses["port"]
+    motors = tuple(dataclasses.replace(m, bus="legs" if m.joint.startswith("leg_") else "upper") for m in config.motors)
+    return dataclasses.replace(config, buses={"legs": dict(port), "upper": dict(port)}, motors=motors)
+
+
+def configured_dynamixel(talos, without_current_mode=(), ports=lambda config: config):
+    """The safety layer over the Dynamixel backend (configured, not active), the emulator on a pty
+    per port, a fake clock; ``ports`` rearranges the config's ports."""
+    config = ports(load_bus_config("talos_dynamixel", talos.joint_names))
     emulator = DynamixelEmulator(config, MujocoBackend(talos))
     emulator.without_current_mode = set(without_current_mode)
     emulator.start()
-    config = dataclasses.replace(config, buses={"port": dict(config.buses["port"], device=emulator.port_name)})
+    config = dataclasses.replace(config, buses={name: dict(port, device=emulator.port_names[name])
+                                                for name, port in config.buses.items()})
     clock = FakeClock()
     hw = SafetyLayer(DynamixelBackend(config, talos.kd, body_sensors=emulator.body_state, effort=talos.effort),
                      SafetyLimits.from_robot(talos, soft_start=0.05), clock=clock)
@@ -411,6 +420,26 @@ def test_dynamixel_servos_run_in_current_based_position_mode_limited_to_their_ef
         sent = emulator.received[-1][1]
         torque = sent.kp[knee] * (sent.q[knee] - state.q[knee]) - sent.kd[knee] * state.dq[knee]
         assert sent.kp[knee] > 0 and abs(torque) <= 20.0 + 0.5
+    finally:
+        hw.close()
+        emulator.close()
+
+
+def test_servos_split_over_two_ports_run_in_lock_step(talos):
+    hw, emulator, clock = configured_dynamixel(talos, ports=two_ports)
+    try:
+        assert [p.name for p in hw.backend.ports] == ["legs", "upper"] and len(set(emulator.port_names.values())) == 2
+        assert [len(p.motors) for p in hw.backend.ports] == [12, 20]
+        hw.activate()
+        state = hw.read()
+        start, received = state.t, len(emulator.received)
+        elbow = talos.joint_names.index("arm_left_4_joint")
+        q = state.q.copy()
+        q[elbow] -= 0.2
+        for k in range(1, 61):
+            state = tick(hw, clock, hold(talos, state, q=q))
+            assert len(emulator.received) == received + k and state.t == pytest.approx(start + k * DT)
+        assert abs(state.q[elbow] - q[elbow]) < 0.02 and hw.backend.missing_replies == 0
     finally:
         hw.close()
         emulator.close()

@@ -6,7 +6,8 @@ entry per joint of the robot::
     backend: mit_can                      # or dynamixel
     buses:                                # mit_can: python-can bus per name
       can0: {interface: socketcan, channel: can0, bitrate: 1000000}
-    port: {device: /dev/ttyUSB0, baudrate: 4000000}   # dynamixel
+    port: {device: /dev/ttyUSB0, baudrate: 4000000}   # dynamixel: one port, or several:
+    ports: {left: {device: /dev/ttyUSB0, baudrate: 4000000}, right: {...}}   # joints name theirs in bus
     models:
       leg: {position: [-12.5, 12.5], velocity: [-20, 20], kp: [0, 10000], kd: [0, 300], torque: [-320, 320]}
     joints:
@@ -59,7 +60,7 @@ class MotorMap:
 @dataclass(frozen=True)
 class BusConfig:
     backend: str
-    buses: dict[str, dict[str, Any]]  # bus name -> backend options (mit_can) / {"port": ...} (dynamixel)
+    buses: dict[str, dict[str, Any]]  # bus name -> python-can options (mit_can) / port name -> port (dynamixel)
     models: dict[str, dict[str, Any]]
     motors: tuple[MotorMap, ...]  # in the robot's joint order
     path: Path
@@ -129,10 +130,13 @@ def load_bus_config(name_or_path: str | Path, joint_names: tuple[str, ...]) -> B
             _require(ranges.get("reply", "mit6") in REPLY_FORMATS,
                      f"models.{model}.reply must be one of {', '.join(REPLY_FORMATS)}", path)
     else:
-        port = data.get("port") or {}
-        _require(isinstance(port, dict) and "device" in port and "baudrate" in port,
-                 "port needs device and baudrate", path)
-        buses = {"port": port}
+        ports = data.get("ports") or {"port": data.get("port") or {}}
+        _require(isinstance(ports, dict) and ports and not ("ports" in data and "port" in data),
+                 "give either port (one serial port) or ports (name -> port)", path)
+        for name, port in ports.items():
+            _require(isinstance(port, dict) and "device" in port and "baudrate" in port,
+                     f"{'port' if 'ports' not in data else f'ports.{name}'} needs device and baudrate", path)
+        buses = dict(ports)
         for model, spec in models.items():
             for key in ("units_per_rev", "velocity_unit", "current_unit", "torque_constant", "kp_unit", "kd_unit"):
                 value = spec.get(key) if isinstance(spec, dict) else None

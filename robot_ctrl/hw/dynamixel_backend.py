@@ -1,9 +1,10 @@
 """DynamixelBackend: joints driven by Dynamixel servos (Protocol 2.0, X-series control table)
 through ``dynamixel_sdk``.
 
-Per tick: a Sync Write of Goal Position to every servo, a Sync Write of the position D/I/P gains
-when they changed (clipped to the register range, ``GAIN_MAX``), and one Sync Read of present
-current, velocity, position and temperature; every ``ERROR_CHECK_TICKS`` ticks, a Sync Read of
+The servos may be split over several serial ports (the bus config's ``ports``; ``DynamixelPort``),
+whose transactions run side by side. Per tick, on each port: a Sync Write of Goal Position, a Sync
+Write of the position D/I/P gains when they changed (clipped to the register range, ``GAIN_MAX``),
+and one Sync Read of present current, velocity, position and temperature; every ``ERROR_CHECK_TICKS`` ticks, a Sync Read of
 each servo's Hardware Error Status and Bus Watchdog: a servo shut down by an error (overload,
 overheating...) or whose watchdog expired (it then ignores goals) fails the write, naming it.
 ``configure`` (torque off, so the EEPROM takes writes) puts every servo in current-based position
@@ -33,14 +34,15 @@ safety layer then sees a stale state.
 from __future__ import annotations
 
 import time
+from concurrent.futures import ThreadPoolExecutor
 from typing import Callable
 
-import dynamixel_sdk as sdk
 import numpy as np
 
 from robot_ctrl.hw import dynamixel_protocol as dxl
 from robot_ctrl.hw.adapter import HardwareAdapter
 from robot_ctrl.hw.bus_config import BusConfig
+from robot_ctrl.hw.dynamixel_port import DynamixelPort
 from robot_ctrl.hw.types import JointCommand, JointState
 
 ERROR_CHECK_TICKS = 40  # [ticks] between reads of the Hardware Error Status and the Bus Watchdog
@@ -60,10 +62,14 @@ class DynamixelBackend(HardwareAdapter):
         self.body_sensors = body_sensors
         self.watchdog_units = int(round(watchdog_ms / 20.0))
         self.clock = clock
-        self.ids = [m.id for m in config.motors]
         self.units = dxl.RegisterUnits.of(config)
         self.effort = None if effort is None else np.asarray(effort, dtype=float)  # [N·m] joint side
         self.goal_current: np.ndarray | None = None  # registers written at activation
+        self.ports = [DynamixelPort(name, options, [(i, m) for i, m in enumerate(config.motors) if m.bus == name])
+                      for name, options in config.buses.items()]
+        self.ports = [port for port in self.ports if port.motors]
+        self._port_of = {m.bus: port for port in self.ports for m in port.motors}
+        self._pool: ThreadPoolExecutor | None = None  # the ports' transactions side by side
         self._p = np.zeros(self.nj)  # motor side
         self._v = np.zeros(self.nj)
         self._t = np.zeros(self.nj)
@@ -71,7 +77,7 @@ class DynamixelBackend(HardwareAdapter):
         self._gains: tuple | None = None
         self._time = None
         self._body: JointState | None = None
-        self._port = None
+        self._open = False
         self._ticks = 0
 
     @property
@@ -81,89 +87,63 @@ class DynamixelBackend(HardwareAdapter):
 
     # Lifecycle hooks ------------------------------------------------------------------------------
     def _on_configure(self) -> None:
-        port = self.config.buses["port"]
-        self._port = sdk.PortHandler(port["device"])
-        if not self._port.openPort():
-            raise OSError(f"cannot open the Dynamixel port {port['device']}")
-        if not self._port.setBaudRate(int(port["baudrate"])):
-            raise OSError(f"cannot set {port['device']} to {port['baudrate']} baud")
-        self._packet = sdk.PacketHandler(2.0)
-        self._goal = sdk.GroupSyncWrite(self._port, self._packet, dxl.GOAL_POSITION, 4)
-        self._gain_write = sdk.GroupSyncWrite(self._port, self._packet, dxl.GAINS, 6)
-        self._present = sdk.GroupSyncRead(self._port, self._packet, dxl.PRESENT, dxl.PRESENT_LENGTH)
-        self._status = {address: sdk.GroupSyncRead(self._port, self._packet, address, 1)
-                        for address in (dxl.HARDWARE_ERROR_STATUS, dxl.BUS_WATCHDOG)}
-        for servo in self.ids:
-            self._present.addParam(servo)
-            for group in self._status.values():
-                group.addParam(servo)
+        self._pool = ThreadPoolExecutor(len(self.ports), thread_name_prefix="dynamixel-port")
+        self._open = True
+        for port in self.ports:
+            port.open()
         self._sync_read()
         if self._time is None:
-            raise OSError(f"no answer from the servos {self.ids} on {port['device']}")
+            raise OSError(f"no answer from the servos on {', '.join(p.device for p in self.ports)}")
         current_limit = []
         for m in self.config.motors:  # torque is off: the EEPROM can be written
-            self._set(m, dxl.RETURN_DELAY_TIME, 0, 1)
-            self._set(m, dxl.OPERATING_MODE, dxl.CURRENT_BASED_POSITION, 1)
-            self._set(m, dxl.PROFILE_ACCELERATION, 0, 4)
-            self._set(m, dxl.PROFILE_VELOCITY, 0, 4)
-            current_limit.append(self._read_register(m, dxl.CURRENT_LIMIT, 2))
+            port = self._port_of[m.bus]
+            port.set(m, dxl.RETURN_DELAY_TIME, 0, 1)
+            port.set(m, dxl.OPERATING_MODE, dxl.CURRENT_BASED_POSITION, 1)
+            port.set(m, dxl.PROFILE_ACCELERATION, 0, 4)
+            port.set(m, dxl.PROFILE_VELOCITY, 0, 4)
+            current_limit.append(port.read(m, dxl.CURRENT_LIMIT, 2))
         limit = np.array(current_limit)
         if self.effort is not None:
             wanted = np.ceil(self.effort / self.config.gear / self.units.torque).astype(int)
             limit = np.minimum(wanted, limit)
         self.goal_current = limit
 
-    def _set(self, motor, address: int, value: int, size: int) -> None:
-        """Write a register and read it back; raise naming the joint if the servo refuses it."""
-        write = {1: self._packet.write1ByteTxRx, 2: self._packet.write2ByteTxRx, 4: self._packet.write4ByteTxRx}[size]
-        result, error = write(self._port, motor.id, address, value)
-        if result != sdk.COMM_SUCCESS or error or self._read_register(motor, address, size) != value:
-            raise OSError(f"{motor.joint} (servo {motor.id}) does not take {value} at address {address} "
-                          f"({self._packet.getTxRxResult(result)}, error {error}): it needs current-based position "
-                          "mode (5), return delay 0, no profile and its bus watchdog (an X-series servo)")
-
-    def _read_register(self, motor, address: int, size: int) -> int:
-        read = {1: self._packet.read1ByteTxRx, 2: self._packet.read2ByteTxRx, 4: self._packet.read4ByteTxRx}[size]
-        value, result, error = read(self._port, motor.id, address)
-        if result != sdk.COMM_SUCCESS or error:
-            raise OSError(f"{motor.joint} (servo {motor.id}): reading address {address} failed "
-                          f"({self._packet.getTxRxResult(result)}, error {error})")
-        return value
+    def _each_port(self, call) -> list:
+        """``call(port)`` on every port, side by side; the results in port order."""
+        return list(self._pool.map(call, self.ports))
 
     def _on_activate(self) -> None:
         self._check_servos(watchdog=False)
         self._gains = None
         self._on_estop()  # P = 0, D = damping, goal = present position: torque comes on soft, in place
         for m, current in zip(self.config.motors, self.goal_current):
-            self._set(m, dxl.GOAL_CURRENT, int(current), 2)  # the servo's torque limit: its joint's effort
+            self._port_of[m.bus].set(m, dxl.GOAL_CURRENT, int(current), 2)  # the servo's torque limit
         for m in self.config.motors:
-            self._write_byte(m.id, dxl.BUS_WATCHDOG, 0)  # clears a tripped watchdog
-            self._write_byte(m.id, dxl.TORQUE_ENABLE, 1)
-            self._set(m, dxl.BUS_WATCHDOG, self.watchdog_units, 1)  # read back: a dead host leaves it limp
+            port = self._port_of[m.bus]
+            port.write(m, dxl.BUS_WATCHDOG, 0, 1)  # clears a tripped watchdog
+            port.write(m, dxl.TORQUE_ENABLE, 1, 1)
+            port.set(m, dxl.BUS_WATCHDOG, self.watchdog_units, 1)  # read back: a dead host leaves it limp
         self._sync_read()
         self._ticks = 0
 
     def _on_deactivate(self) -> None:
-        for servo in self.ids:
-            self._write_byte(servo, dxl.TORQUE_ENABLE, 0)
+        for m in self.config.motors:
+            self._port_of[m.bus].write(m, dxl.TORQUE_ENABLE, 0, 1)
 
     def _on_estop(self) -> None:
-        if self._port is None:
+        if not self._open:
             return
         zero = np.zeros(self.nj)
         q, _, _ = self.config.to_joint(self._p, self._v, self._t)
         self._send(JointCommand(q=q, dq=zero, kp=zero, kd=self.kd_damping, tau_ff=zero))
 
     def _on_close(self) -> None:
-        if self._port is not None:
-            self._port.closePort()
-            self._port = None
-
-    def _write_byte(self, servo: int, address: int, value: int) -> None:
-        result, error = self._packet.write1ByteTxRx(self._port, servo, address, value)
-        if result != sdk.COMM_SUCCESS or error:
-            raise OSError(f"servo {servo}: writing {value} at address {address} failed "
-                          f"({self._packet.getTxRxResult(result)}, error {error})")
+        for port in self.ports:
+            port.close()
+        if self._pool is not None:
+            self._pool.shutdown()
+            self._pool = None
+        self._open = False
 
     # Read / write ---------------------------------------------------------------------------------
     def _write(self, cmd: JointCommand) -> None:
@@ -176,18 +156,17 @@ class DynamixelBackend(HardwareAdapter):
         """Raise, naming the joints, if a servo reports a hardware error or (``watchdog``) an
         expired bus watchdog."""
         problems = []
-        for address, group in self._status.items():
+        for address in (dxl.HARDWARE_ERROR_STATUS, dxl.BUS_WATCHDOG):
             if address == dxl.BUS_WATCHDOG and not watchdog:
                 continue
-            self._check(group.txRxPacket(), "status sync read")
-            for m, servo in zip(self.config.motors, self.ids):
-                value = group.getData(servo, address, 1)
-                if address == dxl.HARDWARE_ERROR_STATUS and value:
-                    problems.append(f"{m.joint}: hardware error ({dxl.hardware_errors(value)}), torque off until "
-                                    "the servo is rebooted")
-                elif address == dxl.BUS_WATCHDOG and dxl.to_signed(value, 1) < 0:
-                    problems.append(f"{m.joint}: bus watchdog expired (goals ignored): no write for "
-                                    f"{self.watchdog_units * 20} ms")
+            for port, values in zip(self.ports, self._each_port(lambda port: port.read_status(address))):
+                for m, value in zip(port.motors, values):
+                    if address == dxl.HARDWARE_ERROR_STATUS and value:
+                        problems.append(f"{m.joint}: hardware error ({dxl.hardware_errors(value)}), torque off until "
+                                        "the servo is rebooted")
+                    elif address == dxl.BUS_WATCHDOG and dxl.to_signed(value, 1) < 0:
+                        problems.append(f"{m.joint}: bus watchdog expired (goals ignored): no write for "
+                                        f"{self.watchdog_units * 20} ms")
         if problems:
             raise RuntimeError("; ".join(problems))
 
@@ -203,37 +182,24 @@ class DynamixelBackend(HardwareAdapter):
         kd_reg = np.clip(np.round(kd / self.units.kd), 0, dxl.GAIN_MAX).astype(int)
         gains = (tuple(kp_reg), tuple(kd_reg))
         if gains != self._gains:
-            self._gain_write.clearParam()
-            for servo, d_gain, p_gain in zip(self.ids, kd_reg, kp_reg):
-                self._gain_write.addParam(servo, dxl.to_bytes(d_gain, 2) + dxl.to_bytes(0, 2) + dxl.to_bytes(p_gain, 2))
-            self._check(self._gain_write.txPacket(), "gain sync write")
+            self._each_port(lambda port: port.write_gains(kp_reg, kd_reg))
             self._gains = gains
         kp_q = kp_reg * self.units.kp
         # Feedforward folded into the goal (see the module docstring); without stiffness, hold the goal.
         goal = np.where(kp_q > 0, p + (t + kd_reg * self.units.kd * v) / np.where(kp_q > 0, kp_q, 1.0), self._p)
         raw = np.round(goal / self.units.position).astype(np.int64)
-        self._goal.clearParam()
-        for servo, value in zip(self.ids, raw):
-            self._goal.addParam(servo, dxl.to_bytes(int(value), 4))
-        self._check(self._goal.txPacket(), "goal sync write")
-
-    def _check(self, result: int, what: str) -> None:
-        if result != sdk.COMM_SUCCESS:
-            raise OSError(f"Dynamixel {what} failed: {self._packet.getTxRxResult(result)}")
+        self._each_port(lambda port: port.write_goals(raw))
 
     def _sync_read(self) -> None:
-        if self._present.txRxPacket() != sdk.COMM_SUCCESS:
+        """Every port's present state; if a servo did not answer, the previous values and time stay."""
+        answers = self._each_port(lambda port: port.read_present())
+        if any(a is None for a in answers):
             self.missing_replies += 1
             return
-        for i, servo in enumerate(self.ids):
-            if not self._present.isAvailable(servo, dxl.PRESENT, dxl.PRESENT_LENGTH):
-                self.missing_replies += 1
-                return
-        for i, servo in enumerate(self.ids):
-            current = dxl.to_signed(self._present.getData(servo, dxl.PRESENT, 2), 2)
-            velocity = dxl.to_signed(self._present.getData(servo, dxl.PRESENT + 2, 4), 4)
-            position = dxl.to_signed(self._present.getData(servo, dxl.PRESENT + 6, 4), 4)
-            self._temperature[i] = self._present.getData(servo, dxl.PRESENT + dxl.TEMPERATURE_OFFSET, 1)
+        for port, registers in zip(self.ports, answers):
+            i = port.index
+            current, velocity, position, temperature = registers.T
+            self._temperature[i] = temperature
             self._t[i] = current * self.units.torque[i]
             self._v[i] = velocity * self.units.velocity[i]
             self._p[i] = position * self.units.position[i]

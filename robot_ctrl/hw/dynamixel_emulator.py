@@ -1,8 +1,9 @@
 """DynamixelEmulator: Dynamixel servos (Protocol 2.0) emulated behind a pseudo-terminal, backed by a
 simulated robot.
 
-The emulator opens a pty pair and serves the servo side of the wire on the master end; a backend
-(or any Dynamixel tool) opens ``port_name``, the slave end, as it would open ``/dev/ttyUSB0``. It
+The emulator opens a pty pair per port of the bus config and serves the servo side of the wire on
+its master end; a backend (or any Dynamixel tool) opens ``port_names[port]``, the slave end, as it
+would open ``/dev/ttyUSB0``. It
 answers Ping, Read, Write, Sync Read and Sync Write for the servos of the bus config with status
 packets (CRC and byte stuffing as on the wire, ``dynamixel_protocol``). Registers kept per servo:
 Torque Enable, position D/I/P gains, Bus Watchdog, Goal Position, Operating Mode, Return Delay
@@ -12,9 +13,10 @@ Current Limit) refuse writes while torque is on (access error), as on a servo; s
 ``without_current_mode`` are a model without current-based position mode (a write of 5 is a data
 range error).
 
-Each Sync Write of Goal Position that covers every servo applies the goals to the ``plant`` (a
-HardwareAdapter, normally the MuJoCo backend: hardware in the loop) and advances it one control
-period: servo i follows ``kp_i (goal_i − q_i) − kd_i dq_i`` with kp = P × kp_unit and kd = D ×
+Once every servo (on every port) has a new Goal Position from a Sync Write, the goals go to the
+``plant`` (a HardwareAdapter, normally the MuJoCo backend: hardware in the loop), which advances
+one control period; a Sync Read that comes while some servos' goals of the tick are still missing
+waits for them (lock-step across ports, at most ``PENDING_WAIT``): servo i follows ``kp_i (goal_i − q_i) − kd_i dq_i`` with kp = P × kp_unit and kd = D ×
 kd_unit (joint side through the gear ratio); in current-based position mode that torque is bounded
 by Goal Current at the measured state (``bound_servo_torque``); the PWM output of the other modes is
 not modelled. Torque disabled: limp. A Bus Watchdog that expires
@@ -44,6 +46,7 @@ from robot_ctrl.hw.servo_torque import bound_servo_torque
 from robot_ctrl.hw.types import JointCommand, JointState
 
 CURRENT_LIMIT = 32767  # the emulated model's Current Limit register (its largest value)
+PENDING_WAIT = 0.5  # [s] the longest a Sync Read waits for the rest of a tick's goals
 EEPROM = {dxl.RETURN_DELAY_TIME: 1, dxl.OPERATING_MODE: 1, dxl.CURRENT_LIMIT: 2}  # address: size
 
 
@@ -55,7 +58,7 @@ class DynamixelEmulator:
         self.plant = plant
         n = len(config.motors)
         self.nj = n
-        self._slot = {m.id: i for i, m in enumerate(config.motors)}
+        self._slot = {(m.bus, m.id): i for i, m in enumerate(config.motors)}
         self.units = dxl.RegisterUnits.of(config)
         self.torque_enable = np.zeros(n, dtype=int)
         self.gains = np.zeros((n, 3), dtype=int)  # D, I, P registers
@@ -73,31 +76,38 @@ class DynamixelEmulator:
         self._lock = threading.Lock()
         self._state: JointState | None = None
         self._last_packet = time.monotonic()
+        self._fresh_goal = np.zeros(n, dtype=bool)  # a goal of this tick has come
+        self._stepped = threading.Condition(self._lock)
         self._running = threading.Event()
-        self._thread: threading.Thread | None = None
-        self.port_name = ""
+        self._threads: list[threading.Thread] = []
+        self._fds: list[int] = []
+        self.port_names: dict[str, str] = {}
 
     def start(self) -> None:
-        """Bring the plant up (configure, activate), open the pty and serve it."""
+        """Bring the plant up (configure, activate), open a pty per port and serve them."""
         self.plant.configure()
         self.plant.activate()
         self._state = self.plant.read()
         self.goal[:] = np.round(self._motor_position() / self.units.position)
-        self._master, slave = os.openpty()
-        tty.setraw(slave)
-        self.port_name = os.ttyname(slave)
-        self._slave = slave
         self._running.set()
-        self._thread = threading.Thread(target=self._serve, name="dynamixel-emulator", daemon=True)
-        self._thread.start()
+        for name in self.config.buses:
+            master, slave = os.openpty()
+            tty.setraw(slave)
+            self.port_names[name] = os.ttyname(slave)
+            self._fds += [master, slave]
+            thread = threading.Thread(target=self._serve, args=(name, master), name=f"dynamixel-emulator-{name}",
+                                      daemon=True)
+            thread.start()
+            self._threads.append(thread)
 
     def close(self) -> None:
         self._running.clear()
-        if self._thread is not None:
-            self._thread.join()
-            self._thread = None
-            os.close(self._master)
-            os.close(self._slave)
+        for thread in self._threads:
+            thread.join()
+        for fd in self._fds:
+            os.close(fd)
+        self._threads.clear()
+        self._fds.clear()
         self.plant.close()
 
     def body_state(self) -> JointState:
@@ -110,20 +120,20 @@ class DynamixelEmulator:
             return self._state.t
 
     # Wire side ------------------------------------------------------------------------------------
-    def _serve(self) -> None:
+    def _serve(self, port: str, master: int) -> None:
         buffer = bytearray()
         while self._running.is_set():
-            ready, _, _ = select.select([self._master], [], [], 0.05)
+            ready, _, _ = select.select([master], [], [], 0.05)
             self._check_watchdog()
             if not ready:
                 continue
-            buffer += os.read(self._master, 4096)
+            buffer += os.read(master, 4096)
             while (pkt := dxl.parse(buffer)) is not None:
                 self._last_packet = time.monotonic()
                 with self._lock:
-                    reply = self._handle(*pkt)
+                    reply = self._handle(port, *pkt)
                 if reply:
-                    os.write(self._master, reply)
+                    os.write(master, reply)
 
     def _check_watchdog(self) -> None:
         silent_ms = (time.monotonic() - self._last_packet) * 1e3
@@ -131,25 +141,29 @@ class DynamixelEmulator:
             expired = (self.watchdog > 0) & (silent_ms > 20.0 * self.watchdog)
             self.watchdog[expired] = -1
 
-    def _handle(self, servo: int, instruction: int, params: bytes) -> bytes:
+    def _handle(self, port: str, servo: int, instruction: int, params: bytes) -> bytes:
+        """Answer one packet on ``port`` (called with the lock held)."""
+        slot = {t: i for (p, t), i in self._slot.items() if p == port}
         if instruction == dxl.INST_SYNC_WRITE:
             address, length = int.from_bytes(params[0:2], "little"), int.from_bytes(params[2:4], "little")
-            written = set()
             for k in range(4, len(params), 1 + length):
-                target = params[k]
-                if target in self._slot:
-                    self._store(self._slot[target], address, params[k + 1 : k + 1 + length])
-                    written.add(target)
-            if address == dxl.GOAL_POSITION and written == set(self._slot):
+                i = slot.get(params[k])
+                if i is not None:
+                    self._store(i, address, params[k + 1 : k + 1 + length])
+                    self._fresh_goal[i] |= address == dxl.GOAL_POSITION
+            if self._fresh_goal.all():
+                self._fresh_goal[:] = False
                 self._step()
+                self._stepped.notify_all()
             return b""
         if instruction == dxl.INST_SYNC_READ:
+            if self._fresh_goal.any():  # another port's goals of this tick are on their way
+                self._stepped.wait_for(lambda: not self._fresh_goal.any(), timeout=PENDING_WAIT)
             address, length = int.from_bytes(params[0:2], "little"), int.from_bytes(params[2:4], "little")
-            return b"".join(dxl.status(t, self._load(self._slot[t], address, length)) for t in params[4:]
-                            if t in self._slot)
-        if servo not in self._slot:
+            return b"".join(dxl.status(t, self._load(slot[t], address, length)) for t in params[4:] if t in slot)
+        if servo not in slot:
             return b""
-        i = self._slot[servo]
+        i = slot[servo]
         if instruction == dxl.INST_PING:
             return dxl.status(servo, bytes([0x06, 0x04, 0x2D]))  # model 1030 (XM430-W350), firmware 45
         if instruction == dxl.INST_WRITE:

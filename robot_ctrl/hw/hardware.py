@@ -83,7 +83,8 @@ def open_hardware(kind: HardwareKind | str, robot: RobotModel, bus_config: str |
         config = load_bus_config(bus_config or f"{robot.name}_dynamixel", robot.joint_names)
         emulator = DynamixelEmulator(config, plant)
         emulator.start()
-        config = dataclasses.replace(config, buses={"port": dict(config.buses["port"], device=emulator.port_name)})
+        config = dataclasses.replace(config, buses={name: dict(port, device=emulator.port_names[name])
+                                                    for name, port in config.buses.items()})
         backend = DynamixelBackend(config, robot.kd, body_sensors=emulator.body_state, effort=robot.effort)
     hw = SafetyLayer(backend, limits, clock=emulator.clock)
     hw.start_watchdog()  # a bus has no lock-step: a stalled controller must be caught from outside
