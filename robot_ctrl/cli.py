@@ -21,7 +21,8 @@ _DRAWER_OPTIONS = {"slot": "--slot", "distance": "--distance", "goal jump distan
                    "goal jump time": "--goal-jump time"}
 _DISTURBANCE_OPTIONS = {"mass_scale": "--mass-scale", "friction_scale": "--friction-scale",
                         "latency": "--latency-ms: latency", "push time": "--push: push time",
-                        "push angle": "--push: push angle", "push impulse": "--push: push impulse"}
+                        "push angle": "--push: push angle", "push impulse": "--push: push impulse",
+                        "reply_loss": "--reply-loss"}
 
 
 def _named(message: str, options: dict[str, str]) -> str:
@@ -534,6 +535,8 @@ def _simulation_parent(robot: argparse.ArgumentParser) -> argparse.ArgumentParse
                          help="command delay [ms], a multiple of the 5 ms control period, 0..100")
     disturb.add_argument("--sensor-noise", action="store_true",
                          help="noisy encoders (1 mrad), IMU attitude (0.5°) and foot F/T (5 N, 0.5 N·m)")
+    disturb.add_argument("--reply-loss", type=float, default=0.0, metavar="P",
+                         help="with --hw mit-can-emulated: each servo reply lost with probability P, 0..0.5")
     return parent
 
 
@@ -542,10 +545,12 @@ def _disturbances(args: argparse.Namespace):
 
     try:
         dist = Disturbances(tuple(Push.parse(p) for p in args.push), args.mass_scale, args.friction_scale,
-                            args.latency_ms / 1e3, args.sensor_noise)
+                            args.latency_ms / 1e3, args.sensor_noise, reply_loss=args.reply_loss)
         dist.latency_ticks(0.005)
     except ValueError as exc:
         raise ConfigError(_named(str(exc), _DISTURBANCE_OPTIONS)) from exc
+    if dist.reply_loss and args.hw != HardwareKind.MIT_CAN_EMULATED.value:
+        raise ConfigError(f"--reply-loss acts on the emulated MIT-CAN bus (--hw mit-can-emulated), not on --hw {args.hw}")
     return dist
 
 

@@ -488,27 +488,22 @@ def test_balance_demo_over_an_emulated_bus(kind, tmp_path):
     assert report["safety"]["interventions"] == {} and report["safety"]["state"] == "active"
 
 
-def test_a_walk_over_a_bus_that_loses_one_reply_in_a_hundred(talos):
-    """3 m over the emulated MIT-CAN bus with 1 % of the replies lost at random: the lost values are
-    held, the walk does not fall and ends at its goal."""
-    from robot_ctrl.control.path_follower import WalkGoal
-    from robot_ctrl.scenarios.walk import run_walk
-
-    config = fresh_mit_config(talos)
-    emulator = MitCanEmulator(config, MujocoBackend(talos))
-    emulator.drop_probability = 0.01
-    emulator.start()
-    backend = MitCanBackend(config, talos.kd, body_sensors=emulator.body_state)
-    hw = SafetyLayer(backend, SafetyLimits.from_robot(talos), clock=emulator.clock)
-    try:
-        report = run_walk(talos, hw, WalkGoal(distance=3.0), log=lambda line: None)
-    finally:
-        hw.close()
-        emulator.close()
+def test_a_walk_over_a_bus_that_loses_one_reply_in_a_hundred(tmp_path):
+    """3 m over the emulated MIT-CAN bus with 1 % of the replies lost at random (--reply-loss): the
+    lost values are held (a motor past max_missed_replies would be a fault, exit status 3), the walk
+    does not fall and ends at its goal."""
+    assert main(["walk", "--distance", "3", "--hw", "mit-can-emulated", "--reply-loss", "0.01", "--quiet",
+                 "--out", str(tmp_path)]) == 0
+    report = json.loads((tmp_path / "report.json").read_text())
     assert report["fell"] is False and report["final_position_error_m"] < 0.05
-    ticks = report["time_s"] / DT
-    assert 0.005 < backend.missing_replies / (ticks * talos.nj) < 0.015  # about 1 % were lost
-    assert backend.missed.max() <= config.max_missed_replies
+    assert report["disturbances"]["reply_loss"] == 0.01
+    lost = report["safety"]["bus"]["missing_replies"] / (report["time_s"] / DT * 32)
+    assert 0.005 < lost < 0.015  # about 1 % were lost
+
+
+def test_reply_loss_needs_the_emulated_mit_bus(capsys):
+    assert main(["walk", "--distance", "1", "--reply-loss", "0.01"]) == 2
+    assert "--reply-loss acts on the emulated MIT-CAN bus (--hw mit-can-emulated)" in capsys.readouterr().err
 
 
 def test_dynamixel_hardware_errors_gain_range_and_a_soft_torque_on(talos):

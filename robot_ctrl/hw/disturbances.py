@@ -12,6 +12,8 @@ own model (Pinocchio) stays nominal.
 - ``latency``: each command reaches the servos this long after it was written (a whole number of
   control periods; until the first one arrives the servos hold the start posture).
 - ``sensor_noise``: Gaussian noise on what ``read`` reports, standard deviations ``NOISE``.
+- ``reply_loss``: on the emulated MIT-CAN bus, each servo reply is lost with this probability
+  (a noisy bus; the backend holds the lost values, ``docs/hardware.md``).
 """
 
 from __future__ import annotations
@@ -58,9 +60,11 @@ class Disturbances:
     sensor_noise: bool = False
     seed: int = 0  # of the sensor noise
     noise: dict = field(default_factory=lambda: dict(NOISE))
+    reply_loss: float = 0.0  # probability of each reply lost on the emulated MIT-CAN bus
 
     def __post_init__(self):
-        for name, (lo, hi) in {"mass_scale": (0.5, 2.0), "friction_scale": (0.05, 3.0), "latency": (0.0, 0.1)}.items():
+        for name, (lo, hi) in {"mass_scale": (0.5, 2.0), "friction_scale": (0.05, 3.0), "latency": (0.0, 0.1),
+                               "reply_loss": (0.0, 0.5)}.items():
             value = getattr(self, name)
             if not (math.isfinite(value) and lo <= value <= hi):
                 raise ValueError(f"{name} = {value} is outside the allowed range [{lo}, {hi}]")
@@ -78,4 +82,4 @@ class Disturbances:
                             "impulse_ns_per_kg": p.impulse, "duration_s": p.duration} for p in self.pushes],
                 "mass_scale": self.mass_scale, "friction_scale": self.friction_scale,
                 "latency_ms": round(self.latency * 1e3, 6),
-                "sensor_noise": dict(self.noise) if self.sensor_noise else None}
+                "sensor_noise": dict(self.noise) if self.sensor_noise else None, "reply_loss": self.reply_loss}

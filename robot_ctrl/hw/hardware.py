@@ -49,6 +49,8 @@ def open_hardware(kind: HardwareKind | str, robot: RobotModel, bus_config: str |
     """The adapter for ``kind``; emulators are started before and stopped after the block.
     ``drawer``: the walk-and-reach task's cabinet in the robot's world (``hw/drawer_cabinet.py``)."""
     kind = HardwareKind.parse(kind)
+    if disturbances.reply_loss and kind is not HardwareKind.MIT_CAN_EMULATED:
+        raise ValueError(f"reply loss acts on the emulated MIT-CAN bus (--hw mit-can-emulated), not on {kind.value}")
     if kind is HardwareKind.MUJOCO:
         robot_process = RobotProcess(functools.partial(MujocoBackend, robot, control_dt, viewer=viewer, video=video,
                                                        disturbances=disturbances, drawer=drawer), robot.nj, robot.name)
@@ -74,6 +76,7 @@ def open_hardware(kind: HardwareKind | str, robot: RobotModel, bus_config: str |
 
         config = load_bus_config(bus_config or f"{robot.name}_mit_can", robot.joint_names)
         emulator = MitCanEmulator(config, plant)
+        emulator.drop_probability = disturbances.reply_loss
         emulator.start()
         backend = MitCanBackend(config, robot.kd, body_sensors=emulator.body_state)
     else:
@@ -118,6 +121,8 @@ def open_group_hardware(kind: HardwareKind | str, robot: RobotModel, base_poses:
     behind its own ``SafetyLayer`` and under the same ``disturbances`` (each robot pushed in its own
     start frame); the world steps once every robot has written its command. Only
     ``mujoco``: the emulated buses each drive a world of their own."""
+    if disturbances.reply_loss:
+        raise ValueError("reply loss acts on the emulated MIT-CAN bus (--hw mit-can-emulated); a group walks in MuJoCo")
     if HardwareKind.parse(kind) is not HardwareKind.MUJOCO:
         raise ValueError(f"hw {kind!r}: a group walks in one shared MuJoCo world, which only the 'mujoco' "
                          "backend drives (each emulated bus drives a simulated robot of its own)")

@@ -297,7 +297,10 @@ class SafetyLayer(HardwareAdapter):
         self._send_pending()
 
     def report(self) -> dict:
-        return {"interventions": dict(self.interventions), "mode": self.mode, "state": self.state.value}
+        b = self.backend
+        return {"interventions": dict(self.interventions), "mode": self.mode, "state": self.state.value,
+                "bus": {"missing_replies": b.missing_replies, "late_replies": b.late_replies,
+                        "error_frames": b.error_frames}}
 
     # Internals (called with the lock held, except the senders) -------------------------------------
     def _intervene(self, kind: str, detail: str) -> None:
