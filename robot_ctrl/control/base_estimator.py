@@ -6,12 +6,15 @@ estimate, gyro, accelerometer), the joint encoders and the feet's force/torque s
 the kinematics + IMU complementary filter of Flayols et al., "Experimental evaluation of simple
 estimators for humanoid robots", Humanoids 2017 (evaluated there on HRP-2):
 
-- **Contact**: a foot whose normal force exceeds ``contact_share`` of the weight is a contact.
-  When it becomes one, its sole's world position at that instant (from the current estimate) is
-  stored as its anchor, on the floor plane ``z = 0``; the anchor stays put while it is a contact.
+- **Contact**: a foot whose normal force exceeds ``contact_share`` of the weight becomes a contact,
+  and stays one until its force drops below ``release_share`` (hysteresis against sensor noise).
+  Its anchor is its sole's world position (from the current estimate) on the floor plane ``z = 0``,
+  averaged over its first ``anchor_samples`` samples (one sample carries the attitude noise times
+  the leg's 1 m lever); then the anchor stays put while the foot is a contact.
 - **Position** (leg odometry): each contact foot s gives ``p_b = a_s − R p_s^b(q)``, where ``a_s``
   is its anchor, ``R`` the IMU attitude and ``p_s^b`` the sole's position in the base frame from
-  the encoders; the feet's values are averaged with weights proportional to their normal forces.
+  the encoders; the feet's values are averaged with weights proportional to their normal forces,
+  and the estimate, carried forward by the velocity, follows them with time constant ``τ_p``.
   Without any contact, the position integrates the velocity.
 - **Velocity**: each contact foot, standing still, gives ``v_kin = −R (v_s^b + ω × p_s^b)``
   (``ω``: gyro, base frame; ``v_s^b``: the sole's velocity relative to the base from the encoder
@@ -21,7 +24,8 @@ estimators for humanoid robots", Humanoids 2017 (evaluated there on HRP-2):
 - **Attitude**: the IMU's own attitude estimate, with its yaw referred to the start: the robot's
   world frame is its start pose ``start_xy_yaw`` (the soles on the floor, z = 0).
 
-Simplifications (stated in docs/hardware.md): the floor is flat and level (anchors at z = 0);
+The contact hysteresis, the anchors' averaging and the position's filter are ours, against sensor
+noise. Simplifications (stated in docs/hardware.md): the floor is flat and level (anchors at z = 0);
 the IMU's yaw is taken as it comes (a real IMU's drifts; the path follower then follows a slowly
 turning frame); a foot slipping while it carries weight is not detected.
 """
