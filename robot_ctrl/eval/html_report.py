@@ -24,7 +24,8 @@ from robot_ctrl.eval.log_figures import log_figures
 SUMMARY_KEYS = ("fell", "fall_time_s", "fall_reason", "time_s", "final_position_error_m", "final_yaw_error_deg",
                 "hand_error_m", "zmp_in_support_ratio", "zmp_error_rms_m", "zmp_error_max_m", "zmp_lateral_std_m",
                 "com_error_rms_m", "com_error_max_m", "step_length_error_m", "peak_torque_ratio", "peak_torque_joint",
-                "peak_grf_n", "grf_limit_n", "grf_over_limit", "dynfilter", "arms", "rtf",
+                "peak_grf_n", "grf_limit_n", "grf_over_limit", "dynfilter", "arms", "base_state",
+                "base_estimate_error", "rtf",
                 # the drawer task
                 "success", "distance_m", "slot", "goal_jumps", "actions", "planned_step_lengths_m",
                 "realized_step_lengths_m", "step_length_error_max_m", "comfort_distance_m", "final_pelvis_to_drawer_m",
