@@ -141,22 +141,22 @@ class MitCanBackend(HardwareAdapter):
         silent = np.ones(self.nj, dtype=bool)
         for _ in range(self.config.max_missed_replies + 1):  # a lost frame is asked again
             self._broadcast(ENABLE, silent)
-            silent &= ~self._collect(silent, expect_enabled=True)
+            silent &= ~self._collect(silent, expect_enabled=True, gap=None)
             if not silent.any():
                 break
         if silent.any():
             self._broadcast(DISABLE)
-            self._collect()
+            self._collect(gap=None)
             raise RuntimeError(f"no reply from {self._joints(silent)} on enable: check their power, wiring and "
                                "CAN ids (all motors disabled again)")
         if self._faults:
             self._broadcast(DISABLE)
-            self._collect()
+            self._collect(gap=None)
             self._raise_faults()
 
     def _on_deactivate(self) -> None:
         self._broadcast(DISABLE)
-        self._collect()
+        self._collect(gap=None)
         self._faults.clear()
 
     def _on_estop(self) -> None:
@@ -232,10 +232,13 @@ class MitCanBackend(HardwareAdapter):
             if motors is None or motors[i]:
                 self._buses[m.bus].send(can.Message(arbitration_id=m.id, data=frame, is_extended_id=False))
 
-    def _collect(self, asked: np.ndarray | None = None, expect_enabled: bool = False) -> np.ndarray:
+    def _collect(self, asked: np.ndarray | None = None, expect_enabled: bool = False,
+                 gap: float | None = REPLY_GAP) -> np.ndarray:
         """Receive one reply per motor ``asked`` (default all; or time out); if any came, advance
         the state's time. Faults the replies report (and, with ``expect_enabled``, drives that say
-        they are disabled) are kept in ``_faults``. Returns which motors replied."""
+        they are disabled) are kept in ``_faults``. A bus's wait ends ``gap`` after its last reply
+        (a tick's replies come back to back); lifecycle calls (``gap=None``) wait the whole reply
+        timeout for every motor. Returns which motors replied."""
         asked = np.ones(self.nj, dtype=bool) if asked is None else asked
         replied = np.zeros(self.nj, dtype=bool)
         deadline = self.clock() + self.reply_timeout
@@ -244,10 +247,10 @@ class MitCanBackend(HardwareAdapter):
             got, bus_deadline = 0, deadline
             while got < expected:
                 remaining = bus_deadline - self.clock()
-                msg = bus.recv(timeout=max(remaining, 0.0)) if remaining > 0 else None
+                msg = bus.recv(timeout=max(remaining, 0.0))  # past the deadline: what is already queued
                 if msg is None:
                     break
-                bus_deadline = min(deadline, self.clock() + REPLY_GAP)
+                bus_deadline = deadline if gap is None else min(deadline, self.clock() + gap)
                 if msg.is_error_frame:
                     self.error_frames += 1
                     continue

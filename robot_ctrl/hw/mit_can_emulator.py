@@ -112,9 +112,15 @@ class MitCanEmulator:
 
     # Bus side -----------------------------------------------------------------------------------
     def _serve(self, name: str, bus: can.BusABC) -> None:
-        while self._running.is_set():
-            msg = bus.recv(timeout=0.05)
-            if msg is None or msg.arbitration_id == HOST_ID:
+        """Answer the frames of bus ``name``; when stopped, the frames already sent are still taken
+        (a motor acts on every frame it receives, the disable sent just before a close included)."""
+        while True:
+            msg = bus.recv(timeout=0.05 if self._running.is_set() else 0.0)
+            if msg is None:
+                if not self._running.is_set():
+                    return
+                continue
+            if msg.arbitration_id == HOST_ID:
                 continue
             if msg.arbitration_id == PARAM_CAN_ID:
                 self._register(name, bus, bytes(msg.data))
