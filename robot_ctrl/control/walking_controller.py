@@ -111,7 +111,6 @@ class WalkingController:
         self._sample_hooks: list[Callable[[PlanSample], None]] = []
         self._hands: dict[str, tuple[np.ndarray, np.ndarray] | None] = {s: None for s in SIDES}
         self._balance_shift = np.zeros(2)
-        self.plan_shift = np.zeros(2)  # [m] how far the plan has followed the real feet so far
         self._stance: tuple[str, np.ndarray, int] | None = None  # side, sum of measured sole xy, ticks
 
     # Commands ---------------------------------------------------------------------------------
@@ -251,7 +250,6 @@ class WalkingController:
             q = self.ik.q.copy()
             q[:2] += delta
             self.ik.set_configuration(q)
-            self.plan_shift += delta
 
     def _measure_stance(self, ref: WalkReference) -> None:
         """Add this tick's measured sole of the plan's single stance foot, if it alone touches."""

@@ -95,11 +95,11 @@ def figure_png(fig) -> str:
     return base64.b64encode(buffer.getvalue()).decode()
 
 
-def _shade_single_support(ax, t, stance):
-    single = stance >= 0
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], single.astype(int), [0]])))
+def shade_spans(ax, t, mask, **style) -> None:
+    """Shade the time spans where ``mask`` holds (``style``: ``axvspan`` options)."""
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], np.asarray(mask).astype(int), [0]])))
     for start, end in zip(edges[::2], edges[1::2]):
-        ax.axvspan(t[start], t[end - 1], color="0.9", lw=0)
+        ax.axvspan(t[start], t[end - 1], lw=0, **style)
 
 
 def _zmp_figure(s) -> str:
@@ -107,7 +107,7 @@ def _zmp_figure(s) -> str:
 
     fig, axes = plt.subplots(2, 1, figsize=(9, 5.5), sharex=True)
     for i, (ax, name) in enumerate(zip(axes, "xy")):
-        _shade_single_support(ax, s["t"], s["stance"])
+        shade_spans(ax, s["t"], s["stance"] >= 0, color="0.9")
         ax.plot(s["t"], s["zmp_ref"][:, i], label="reference (plan)")
         ax.plot(s["t"], s["zmp"][:, i], lw=0.8, label="measured (foot F/T)")
         ax.set_ylabel(f"ZMP {name} [m]")

@@ -41,14 +41,12 @@ def _tracking(s) -> str:
 def _torques(s) -> str:
     import matplotlib.pyplot as plt
 
-    from robot_ctrl.eval.html_report import figure_png
+    from robot_ctrl.eval.html_report import figure_png, shade_spans
+    from robot_ctrl.eval.tick_log import MODES
 
     t, ratio = s["log_t"], np.abs(s["log_tau"]) / s["log_effort"]
     fig, ax = plt.subplots(figsize=(9, 3.2))
-    damping = s["log_mode"] == 2
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], damping.astype(int), [0]])))
-    for start, end in zip(edges[::2], edges[1::2]):
-        ax.axvspan(t[start], t[end - 1], color="C3", alpha=0.15, lw=0)
+    shade_spans(ax, t, s["log_mode"] == MODES.index("damping"), color="C3", alpha=0.15)
     ax.plot(t, ratio.max(axis=1), lw=0.9, label="largest over the joints")
     ax.plot(t, np.median(ratio, axis=1), lw=0.9, label="median")
     ax.axhline(1.0, color="k", lw=0.8, ls="--")

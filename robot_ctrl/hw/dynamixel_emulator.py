@@ -58,7 +58,7 @@ class DynamixelEmulator:
         self.plant = plant
         n = len(config.motors)
         self.nj = n
-        self._slot = {(m.bus, m.id): i for i, m in enumerate(config.motors)}
+        self._slots = {port: {m.id: i for i, m in enumerate(config.motors) if m.bus == port} for port in config.buses}
         self.units = dxl.RegisterUnits.of(config)
         self.torque_enable = np.zeros(n, dtype=int)
         self.gains = np.zeros((n, 3), dtype=int)  # D, I, P registers
@@ -143,7 +143,7 @@ class DynamixelEmulator:
 
     def _handle(self, port: str, servo: int, instruction: int, params: bytes) -> bytes:
         """Answer one packet on ``port`` (called with the lock held)."""
-        slot = {t: i for (p, t), i in self._slot.items() if p == port}
+        slot = self._slots[port]
         if instruction == dxl.INST_SYNC_WRITE:
             address, length = int.from_bytes(params[0:2], "little"), int.from_bytes(params[2:4], "little")
             for k in range(4, len(params), 1 + length):

@@ -4,7 +4,7 @@ floating-base estimator's estimate from the IMU, the encoders and the foot senso
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Callable, TypeVar
 
 from robot_ctrl.control.base_estimator import BaseEstimator, EstimatedBaseController
@@ -22,7 +22,11 @@ class BaseView:
     kind: BaseState
     stepped: object  # the controller the loop steps
     error: BaseEstimateError | None = None
-    recorders: list = field(default_factory=list)
+
+    @property
+    def recorders(self) -> list:
+        """What the loop must record for this view: the estimate's error, if there is an estimate."""
+        return [] if self.error is None else [self.error]
 
     def report(self) -> dict:
         return {"base_state": self.kind.value,
@@ -38,4 +42,4 @@ def seeing_base(kind: BaseState, robot: RobotModel, state: JointState, build: Ca
     controller = build(estimator.update(state))
     stepped = EstimatedBaseController(controller, estimator)
     error = BaseEstimateError(lambda: stepped.seen)
-    return controller, BaseView(kind, stepped, error, [error])
+    return controller, BaseView(kind, stepped, error)
