@@ -85,6 +85,13 @@ def test_dynamixel_packets_match_the_wire_format():
     corrupt = bytearray(wire)
     corrupt[-1] ^= 0xFF
     assert dxl.parse(corrupt) is None
+    # Fast Sync Read answer of servos 3 and 7: one packet from the broadcast id, each servo's part
+    # ERR ID DATA CRC, the first CRC the running CRC of the packet so far, the last the packet's own.
+    fast = dxl.fast_sync_status([(3, bytes([1, 2]), 0), (7, bytes([3, 4]), 0x80)])
+    assert fast[:8] == dxl.HEADER + bytes([dxl.BROADCAST, 13, 0, dxl.INST_STATUS])
+    assert fast[8:12] == bytes([0, 3, 1, 2]) and int.from_bytes(fast[12:14], "little") == dxl.crc16(fast[:12])
+    assert fast[14:18] == bytes([0x80, 7, 3, 4]) and len(fast) == 20
+    assert dxl.parse(bytearray(fast)) == (dxl.BROADCAST, dxl.INST_STATUS, fast[8:18])
 
 
 def test_bus_config_errors_name_the_joint_and_field(talos, tmp_path):
@@ -102,6 +109,10 @@ def test_bus_config_errors_name_the_joint_and_field(talos, tmp_path):
         load_bus_config(bad, talos.joint_names)
     bad.write_text(text.replace("reply_timeout_s: 0.05", "reply_timeout_s: 0.05\ndrive_timeout_s: 0"))
     with pytest.raises(ConfigError, match=r"drive_timeout_s = 0 is outside the allowed range \[0.001, 10\] s"):
+        load_bus_config(bad, talos.joint_names)
+    text = load_bus_config("talos_dynamixel", talos.joint_names).path.read_text()
+    bad.write_text(text.replace("kd_unit: 0.02}", "kd_unit: 0.02, fast_sync_read: yes please}"))
+    with pytest.raises(ConfigError, match=r"models.talos-emulated.fast_sync_read must be true or false"):
         load_bus_config(bad, talos.joint_names)
 
 
@@ -381,12 +392,19 @@ def two_ports(config):
     return dataclasses.replace(config, buses={"legs": dict(port), "upper": dict(port)}, motors=motors)
 
 
-def configured_dynamixel(talos, without_current_mode=(), ports=lambda config: config):
+def fast_sync_read(config):
+    """The legs and the rest on two ports, every servo model with Fast Sync Read."""
+    config = two_ports(config)
+    return dataclasses.replace(config, models={k: dict(v, fast_sync_read=True) for k, v in config.models.items()})
+
+
+def configured_dynamixel(talos, without_current_mode=(), ports=lambda config: config, without_fast_sync_read=()):
     """The safety layer over the Dynamixel backend (configured, not active), the emulator on a pty
     per port, a fake clock; ``ports`` rearranges the config's ports."""
     config = ports(load_bus_config("talos_dynamixel", talos.joint_names))
     emulator = DynamixelEmulator(config, MujocoBackend(talos))
     emulator.without_current_mode = set(without_current_mode)
+    emulator.without_fast_sync_read = set(without_fast_sync_read)
     emulator.start()
     config = dataclasses.replace(config, buses={name: dict(port, device=emulator.port_names[name])
                                                 for name, port in config.buses.items()})
@@ -443,6 +461,36 @@ def test_servos_split_over_two_ports_run_in_lock_step(talos):
     finally:
         hw.close()
         emulator.close()
+
+
+def test_fast_sync_read_gives_the_servos_state_in_one_packet_per_port(talos):
+    hw, emulator, clock = configured_dynamixel(talos, ports=fast_sync_read)
+    try:
+        assert [p.fast for p in hw.backend.ports] == [True, True]
+        hw.activate()
+        state = hw.read()
+        elbow = talos.joint_names.index("arm_left_4_joint")
+        q = state.q.copy()
+        q[elbow] -= 0.2
+        fast, sync = emulator.instructions[dxl.INST_FAST_SYNC_READ], emulator.instructions[dxl.INST_SYNC_READ]
+        for _ in range(60):
+            state = tick(hw, clock, hold(talos, state, q=q))
+            plant = emulator.body_state()
+            np.testing.assert_allclose(state.q, plant.q, atol=1e-5)  # one position unit: 6.3e-6 rad
+            np.testing.assert_allclose(state.dq, plant.dq, atol=1e-3)
+        assert abs(state.q[elbow] - q[elbow]) < 0.02 and hw.backend.missing_replies == 0
+        assert emulator.instructions[dxl.INST_FAST_SYNC_READ] - fast == 2 * 60  # one per port and tick
+        assert emulator.instructions[dxl.INST_SYNC_READ] - sync == 2 * 2 * (60 // 40)  # the error checks only
+    finally:
+        hw.close()
+        emulator.close()
+
+
+def test_servos_without_fast_sync_read_fail_the_configuration_naming_their_port(talos):
+    elbow = talos.joint_names.index("arm_left_4_joint")
+    with pytest.raises(HardwareFault, match=r"servos on \S+ \(upper\) answer a Sync Read but not a Fast Sync Read: "
+                                            r"set fast_sync_read: false"):
+        configured_dynamixel(talos, ports=fast_sync_read, without_fast_sync_read={elbow})
 
 
 def test_a_servo_without_current_based_position_mode_fails_the_configuration(talos):

@@ -142,6 +142,8 @@ def load_bus_config(name_or_path: str | Path, joint_names: tuple[str, ...]) -> B
                 value = spec.get(key) if isinstance(spec, dict) else None
                 _require(isinstance(value, (int, float)) and value > 0, f"models.{model}.{key} must be a number > 0",
                          path)
+            _require(isinstance(spec.get("fast_sync_read", False), bool),
+                     f"models.{model}.fast_sync_read must be true or false", path)
     timeout = data.get("reply_timeout_s", BusConfig.reply_timeout)
     _require(isinstance(timeout, (int, float)) and 1e-4 <= timeout <= 1.0,
              f"reply_timeout_s = {timeout!r} is outside the allowed range [0.0001, 1] s", path)

@@ -4,7 +4,9 @@ through ``dynamixel_sdk``.
 The servos may be split over several serial ports (the bus config's ``ports``; ``DynamixelPort``),
 whose transactions run side by side. Per tick, on each port: a Sync Write of Goal Position, a Sync
 Write of the position D/I/P gains when they changed (clipped to the register range, ``GAIN_MAX``),
-and one Sync Read of present current, velocity, position and temperature; every ``ERROR_CHECK_TICKS`` ticks, a Sync Read of
+and one Sync Read (a Fast Sync Read where every servo of the port has a model with
+``fast_sync_read: true``, checked at ``configure``) of present current, velocity, position and
+temperature; every ``ERROR_CHECK_TICKS`` ticks, a Sync Read of
 each servo's Hardware Error Status and Bus Watchdog: a servo shut down by an error (overload,
 overheating...) or whose watchdog expired (it then ignores goals) fails the write, naming it.
 ``configure`` (torque off, so the EEPROM takes writes) puts every servo in current-based position
@@ -65,7 +67,9 @@ class DynamixelBackend(HardwareAdapter):
         self.units = dxl.RegisterUnits.of(config)
         self.effort = None if effort is None else np.asarray(effort, dtype=float)  # [N·m] joint side
         self.goal_current: np.ndarray | None = None  # registers written at activation
-        self.ports = [DynamixelPort(name, options, [(i, m) for i, m in enumerate(config.motors) if m.bus == name])
+        fast = [bool(config.models[m.model].get("fast_sync_read", False)) for m in config.motors]
+        self.ports = [DynamixelPort(name, options, [(i, m) for i, m in enumerate(config.motors) if m.bus == name],
+                                    fast=all(f for f, m in zip(fast, config.motors) if m.bus == name))
                       for name, options in config.buses.items()]
         self.ports = [port for port in self.ports if port.motors]
         self._port_of = {m.bus: port for port in self.ports for m in port.motors}
@@ -91,6 +95,7 @@ class DynamixelBackend(HardwareAdapter):
         self._open = True
         for port in self.ports:
             port.open()
+            port.check_fast_sync_read()
         self._sync_read()
         if self._time is None:
             raise OSError(f"no answer from the servos on {', '.join(p.device for p in self.ports)}")

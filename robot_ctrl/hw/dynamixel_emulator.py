@@ -3,9 +3,11 @@ simulated robot.
 
 The emulator opens a pty pair per port of the bus config and serves the servo side of the wire on
 its master end; a backend (or any Dynamixel tool) opens ``port_names[port]``, the slave end, as it
-would open ``/dev/ttyUSB0``. It
-answers Ping, Read, Write, Sync Read and Sync Write for the servos of the bus config with status
-packets (CRC and byte stuffing as on the wire, ``dynamixel_protocol``). Registers kept per servo:
+would open ``/dev/ttyUSB0``. It answers Ping, Read, Write, Sync Read, Fast Sync Read and Sync
+Write for the servos of the bus config with status packets (CRC and byte stuffing as on the wire,
+``dynamixel_protocol``); servos listed in ``without_fast_sync_read`` are a model or firmware
+without Fast Sync Read (they add no part, so the packet never completes). ``instructions`` counts
+the packets taken per instruction. Registers kept per servo:
 Torque Enable, position D/I/P gains, Bus Watchdog, Goal Position, Operating Mode, Return Delay
 Time, Current Limit, Goal Current and the profile; present current, velocity, position and
 temperature are computed from the plant. EEPROM registers (Operating Mode, Return Delay Time,
@@ -36,6 +38,7 @@ import select
 import threading
 import time
 import tty
+from collections import Counter
 
 import numpy as np
 
@@ -72,6 +75,8 @@ class DynamixelEmulator:
         self.goal_current = np.full(n, CURRENT_LIMIT)
         self.profile = np.zeros((n, 2), dtype=np.int64)  # acceleration, velocity
         self.without_current_mode: set[int] = set()
+        self.without_fast_sync_read: set[int] = set()
+        self.instructions: Counter[int] = Counter()  # packets taken, per instruction
         self.received: list[tuple[float, JointCommand]] = []
         self._lock = threading.Lock()
         self._state: JointState | None = None
@@ -144,6 +149,7 @@ class DynamixelEmulator:
     def _handle(self, port: str, servo: int, instruction: int, params: bytes) -> bytes:
         """Answer one packet on ``port`` (called with the lock held)."""
         slot = self._slots[port]
+        self.instructions[instruction] += 1
         if instruction == dxl.INST_SYNC_WRITE:
             address, length = int.from_bytes(params[0:2], "little"), int.from_bytes(params[2:4], "little")
             for k in range(4, len(params), 1 + length):
@@ -156,11 +162,16 @@ class DynamixelEmulator:
                 self._step()
                 self._stepped.notify_all()
             return b""
-        if instruction == dxl.INST_SYNC_READ:
+        if instruction in (dxl.INST_SYNC_READ, dxl.INST_FAST_SYNC_READ):
             if self._fresh_goal.any():  # another port's goals of this tick are on their way
                 self._stepped.wait_for(lambda: not self._fresh_goal.any(), timeout=PENDING_WAIT)
             address, length = int.from_bytes(params[0:2], "little"), int.from_bytes(params[2:4], "little")
-            return b"".join(dxl.status(t, self._load(slot[t], address, length)) for t in params[4:] if t in slot)
+            asked = [t for t in params[4:] if t in slot]
+            if instruction == dxl.INST_SYNC_READ:
+                return b"".join(dxl.status(t, self._load(slot[t], address, length)) for t in asked)
+            if any(slot[t] in self.without_fast_sync_read for t in asked) or len(asked) < len(params) - 4:
+                return b""  # a servo that does not add its part breaks the one packet
+            return dxl.fast_sync_status([(t, self._load(slot[t], address, length), 0) for t in asked])
         if servo not in slot:
             return b""
         i = slot[servo]

@@ -3,7 +3,10 @@
 It owns the port handler and the Sync Write / Sync Read groups of its servos (Goal Position, the
 position gains, the present-state block, Hardware Error Status and Bus Watchdog) and does one
 transaction at a time; ``DynamixelBackend`` runs its ports' transactions side by side, so a robot
-split over several ports spends the longest port's time per tick, not their sum.
+split over several ports spends the longest port's time per tick, not their sum. With ``fast``
+(every servo's model says ``fast_sync_read: true``) the present state comes from a Fast Sync Read:
+one status packet that the servos fill one after the other, instead of one status packet per
+servo, each with its own header and turnaround.
 """
 
 from __future__ import annotations
@@ -16,9 +19,11 @@ from robot_ctrl.hw.bus_config import MotorMap
 
 
 class DynamixelPort:
-    def __init__(self, name: str, options: dict, motors: list[tuple[int, MotorMap]]):
-        """``motors``: (index in the robot's joint order, mapping) of each servo on this port."""
+    def __init__(self, name: str, options: dict, motors: list[tuple[int, MotorMap]], fast: bool = False):
+        """``motors``: (index in the robot's joint order, mapping) of each servo on this port;
+        ``fast``: read the present state with Fast Sync Read."""
         self.name, self.device, self.baudrate = name, options["device"], int(options["baudrate"])
+        self.fast = fast
         self.index = [i for i, _ in motors]
         self.motors = [m for _, m in motors]
         self.ids = [m.id for m in self.motors]
@@ -65,7 +70,7 @@ class DynamixelPort:
     def read_present(self) -> np.ndarray | None:
         """(current, velocity, position, temperature) registers per servo of this port, or None if
         a servo did not answer."""
-        if self.present.txRxPacket() != sdk.COMM_SUCCESS:
+        if (self.present.fastSyncRead() if self.fast else self.present.txRxPacket()) != sdk.COMM_SUCCESS:
             return None
         if not all(self.present.isAvailable(s, dxl.PRESENT, dxl.PRESENT_LENGTH) for s in self.ids):
             return None
@@ -73,6 +78,15 @@ class DynamixelPort:
                           dxl.to_signed(self.present.getData(s, dxl.PRESENT + 2, 4), 4),
                           dxl.to_signed(self.present.getData(s, dxl.PRESENT + 6, 4), 4),
                           self.present.getData(s, dxl.PRESENT + dxl.TEMPERATURE_OFFSET, 1)] for s in self.ids])
+
+    def check_fast_sync_read(self) -> None:
+        """With ``fast``, raise naming the port if its servos answer a Sync Read but not a Fast Sync
+        Read (a model or firmware without it)."""
+        if not self.fast or self.present.fastSyncRead() == sdk.COMM_SUCCESS:
+            return
+        if self.present.txRxPacket() == sdk.COMM_SUCCESS:
+            raise OSError(f"the servos on {self.device} ({self.name}) answer a Sync Read but not a Fast Sync Read: "
+                          "set fast_sync_read: false for their models")
 
     def read_status(self, address: int) -> list[int]:
         """One status byte (Hardware Error Status or Bus Watchdog) of each servo."""

@@ -8,7 +8,8 @@ format, used by the emulator (and by tests to check what the SDK put on the wire
 ``LEN`` counts the bytes after it (instruction, parameters, CRC). Inside the instruction and
 parameters every ``FF FF FD`` is sent as ``FF FF FD FD`` (stuffing). The CRC-16 (polynomial 0x8005,
 initial value 0, not reflected) covers everything before it, after stuffing. Status packets use
-the instruction 0x55 followed by an error byte. X-series control table addresses used here:
+the instruction 0x55 followed by an error byte; the answer to a Fast Sync Read (0x8A) is one status
+packet, not stuffed, that every servo asked adds its part to (``fast_sync_status``). X-series control table addresses used here:
 Torque Enable 64, Position D/I/P Gain 80/82/84, Bus Watchdog 98, Goal Position 116,
 Present Current 126, Present Velocity 128, Present Position 132, Present Temperature 146.
 """
@@ -22,7 +23,7 @@ import numpy as np
 
 HEADER = bytes([0xFF, 0xFF, 0xFD, 0x00])
 INST_PING, INST_READ, INST_WRITE, INST_STATUS = 0x01, 0x02, 0x03, 0x55
-INST_SYNC_READ, INST_SYNC_WRITE = 0x82, 0x83
+INST_SYNC_READ, INST_SYNC_WRITE, INST_FAST_SYNC_READ = 0x82, 0x83, 0x8A
 BROADCAST = 0xFE
 
 RETURN_DELAY_TIME = 9  # EEPROM, 2 µs units (default 250: 500 µs per servo and read)
@@ -105,6 +106,24 @@ def packet(servo_id: int, instruction: int, params: bytes = b"") -> bytes:
 
 def status(servo_id: int, params: bytes = b"", error: int = 0) -> bytes:
     return packet(servo_id, INST_STATUS, bytes([error]) + params)
+
+
+def fast_sync_status(answers: list[tuple[int, bytes, int]]) -> bytes:
+    """The one status packet that answers a Fast Sync Read: ID ``BROADCAST``, then for each servo
+    ``(id, data, error)`` in the order asked, ``ERROR | ID | DATA | CRC``, where each servo's CRC is
+    the running CRC of the packet so far and the last one is the packet's own CRC (the servos append
+    their parts one after the other). Not byte-stuffed: ``dynamixel_sdk`` reads this packet without
+    removing stuffing, at fixed offsets of ``len(data) + 4`` bytes per servo, after checking its CRC."""
+    length = 1 + sum(4 + len(data) for _, data, _ in answers)  # instruction, the parts, their CRCs
+    head = HEADER + bytes([BROADCAST, length & 0xFF, length >> 8, INST_STATUS])
+    params = b""
+    for k, (servo, data, error) in enumerate(answers):
+        params += bytes([error, servo]) + data
+        if k < len(answers) - 1:
+            crc = crc16(head + params)
+            params += bytes([crc & 0xFF, crc >> 8])
+    crc = crc16(head + params)
+    return head + params + bytes([crc & 0xFF, crc >> 8])
 
 
 def parse(buffer: bytearray) -> tuple[int, int, bytes] | None:
