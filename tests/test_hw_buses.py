@@ -4,6 +4,7 @@ safety layer's behaviour, checked on the emulator side of the bus."""
 import dataclasses
 import json
 import threading
+import time
 import uuid
 
 import numpy as np
@@ -144,6 +145,26 @@ def mit(talos):
     yield hw, emulator, clock, hw.read()
     hw.close()
     emulator.close()
+
+
+def test_servos_without_body_sensors_count_their_time_from_configure(talos):
+    # A run's time limits count in its states' time: the time since the bus was configured, not the
+    # wall clock's (a stand on real servos ended at its first tick when the state's time was the
+    # monotonic clock's, hours).
+    config = fresh_mit_config(talos)
+    emulator = MitCanEmulator(config, MujocoBackend(talos))
+    emulator.start()
+    backend = MitCanBackend(config, talos.kd)
+    try:
+        backend.configure()
+        backend.activate()
+        first = backend.read().t
+        time.sleep(0.2)
+        backend.write(hold(talos, backend.read()))
+        assert 0.0 <= first < 1.0 and backend.read().t - first == pytest.approx(0.2, abs=0.1)
+    finally:
+        backend.close()
+        emulator.close()
 
 
 def hold(talos, state, **change):

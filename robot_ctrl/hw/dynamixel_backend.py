@@ -80,6 +80,7 @@ class DynamixelBackend(HardwareAdapter):
         self._temperature = np.zeros(self.nj)
         self._gains: tuple | None = None
         self._time = None
+        self._t0 = 0.0
         self._body: JointState | None = None
         self._open = False
         self._ticks = 0
@@ -91,6 +92,7 @@ class DynamixelBackend(HardwareAdapter):
 
     # Lifecycle hooks ------------------------------------------------------------------------------
     def _on_configure(self) -> None:
+        self._t0 = self.clock()  # the state's time counts from here
         self._pool = ThreadPoolExecutor(len(self.ports), thread_name_prefix="dynamixel-port")
         self._open = True
         for port in self.ports:
@@ -209,4 +211,4 @@ class DynamixelBackend(HardwareAdapter):
             self._v[i] = velocity * self.units.velocity[i]
             self._p[i] = position * self.units.position[i]
         self._body = self.body_sensors() if self.body_sensors is not None else None
-        self._time = self._body.t if self._body is not None else self.clock()
+        self._time = self._body.t if self._body is not None else self.clock() - self._t0

@@ -87,10 +87,12 @@ class MitCanBackend(HardwareAdapter):
         self._temperature = np.full(self.nj, np.nan)  # [°C] where the format reports it
         self._faults: dict[int, str] = {}
         self._time = None
+        self._t0 = 0.0
         self._body: JointState | None = None
 
     # Lifecycle hooks ------------------------------------------------------------------------------
     def _on_configure(self) -> None:
+        self._t0 = self.clock()  # the state's time counts from here
         for name, options in self.config.buses.items():
             self._buses[name] = can.Bus(**options)
         self._set_drive_timeouts()
@@ -271,6 +273,6 @@ class MitCanBackend(HardwareAdapter):
                 got += 1
         if replied.any():
             self._body = self.body_sensors() if self.body_sensors is not None else None
-            self._time = self._body.t if self._body is not None else self.clock()
+            self._time = self._body.t if self._body is not None else self.clock() - self._t0
         self.missing_replies += int((asked & ~replied).sum())
         return replied
