@@ -8,6 +8,7 @@ import re
 import signal
 import sys
 import threading
+from contextlib import contextmanager
 from pathlib import Path
 
 from robot_ctrl.modes import ArmMotion, BaseState, FilterMode, HardwareKind
@@ -72,19 +73,63 @@ def _check_outputs(args: argparse.Namespace) -> None:
 
 
 def _simulation(args: argparse.Namespace):
-    """The robot and its hardware for a single-robot MuJoCo scenario."""
+    """The robot and its hardware for a single-robot scenario: simulated, emulated or real servos."""
     from robot_ctrl.hw.hardware import open_hardware
     from robot_ctrl.robot.model import load_robot
 
     _check_outputs(args)
     disturbances = _disturbances(args)
     robot = load_robot(args.robot)
+    if HardwareKind.parse(args.hw).real:
+        _check_real_robot(args, disturbances, robot)
     try:
         return robot, disturbances, open_hardware(args.hw, robot, args.bus_config, viewer=args.viewer,
                                                   video=args.video, disturbances=disturbances,
                                                   drawer=getattr(args, "drawer", None))
     except (FileNotFoundError, ValueError) as exc:
         raise ConfigError(f"--hw {args.hw}: {exc}") from exc
+
+
+def _check_real_robot(args: argparse.Namespace, disturbances, robot) -> None:
+    """Refuse what a scenario on real servos cannot do, before anything moves."""
+    from robot_ctrl.hw.bus_config import load_bus_config
+    from robot_ctrl.hw.disturbances import Disturbances
+
+    if disturbances != Disturbances():
+        raise ConfigError(f"--hw {args.hw}: --push, --mass-scale, --friction-scale, --latency-ms, --sensor-noise and "
+                          "--reply-loss act on a simulated robot, not on real servos")
+    if args.viewer or args.video is not None:
+        raise ConfigError(f"--hw {args.hw}: --viewer and --video show the simulation; real servos have none")
+    if args.bus_config is None:
+        raise ConfigError(f"--hw {args.hw} needs --bus-config: the YAML naming your buses, ids, directions, zero "
+                          "offsets and body sensors (start from configs/hw/talos_mit_can.yaml or talos_dynamixel.yaml)")
+    if not load_bus_config(args.bus_config, robot.joint_names).body_sensors:
+        raise ConfigError(f"--hw {args.hw}: {args.command} needs the robot's IMU and foot force/torque sensors: name "
+                          "their driver in the bus config (body_sensors: module:function, docs/hardware.md)")
+
+
+def _base_state(args: argparse.Namespace) -> BaseState:
+    """``--base-state``: the simulator's by default; on real servos, which have none, the estimate."""
+    real = HardwareKind.parse(args.hw).real
+    if args.base_state is None:
+        return BaseState.ESTIMATED if real else BaseState.SIMULATED
+    if real and args.base_state == BaseState.SIMULATED.value:
+        raise ConfigError(f"--base-state simulated: --hw {args.hw} has no simulator; real servos walk on the "
+                          "estimated base (--base-state estimated, the default there)")
+    return BaseState(args.base_state)
+
+
+@contextmanager
+def _on_the_robot(args: argparse.Namespace, robot, hw, control_dt: float):
+    """The run's recorders (the tick log) and, on real servos, its pacer (absolute deadlines; the
+    scenario then starts with the start sequence, ``scenarios/run_start.py``)."""
+    from robot_ctrl.control.pacer import Pacer
+
+    pacer = Pacer(control_dt) if HardwareKind.parse(args.hw).real else None
+    if pacer is not None and not Pacer.request_realtime():
+        _log("robot-ctrl: no real-time scheduling (SCHED_FIFO not permitted); timing in the report")
+    with _tick_log(args, robot, hw, control_dt, pacer) as recorders:
+        yield recorders, pacer
 
 
 def _log_command(args: argparse.Namespace) -> int:
@@ -128,10 +173,11 @@ def _balance(args: argparse.Namespace) -> int:
     from robot_ctrl.control.balance_controller import BalanceParams
     from robot_ctrl.scenarios.balance import run_balance
 
+    base_state = _base_state(args)
     robot, disturbances, hardware = _simulation(args)
-    with hardware as hw, _tick_log(args, robot, hw, BalanceParams.control_dt) as recorders:
+    with hardware as hw, _on_the_robot(args, robot, hw, BalanceParams.control_dt) as (recorders, pacer):
         report = run_balance(robot, hw, out_dir=args.out, log=_log, progress=not args.quiet,
-                             disturbances=disturbances, recorders=recorders)
+                             disturbances=disturbances, recorders=recorders, base_state=base_state, pacer=pacer)
     return _finish(args, report)
 
 
@@ -150,11 +196,11 @@ def _walk(args: argparse.Namespace) -> int:
         raise ConfigError(f"walk: --dynfilter-passes {args.dynfilter_passes} is outside the allowed range [1, 10]")
     settings = WalkSettings(stabilize=not args.no_stabilizer, arms=ArmMotion(args.arms),
                             dynfilter=FilterMode(args.dynfilter), dynfilter_passes=args.dynfilter_passes,
-                            dynfilter_worker=not args.dynfilter_inline, base_state=BaseState(args.base_state))
+                            dynfilter_worker=not args.dynfilter_inline, base_state=_base_state(args))
     robot, disturbances, hardware = _simulation(args)
-    with hardware as hw, _tick_log(args, robot, hw, settings.control_dt) as recorders:
+    with hardware as hw, _on_the_robot(args, robot, hw, settings.control_dt) as (recorders, pacer):
         report = run_walk(robot, hw, goal, settings, out_dir=args.out, log=_log, progress=not args.quiet,
-                          disturbances=disturbances, recorders=recorders)
+                          disturbances=disturbances, recorders=recorders, pacer=pacer)
     return _finish(args, report)
 
 
@@ -165,7 +211,7 @@ def _drawer(args: argparse.Namespace) -> int:
     from robot_ctrl.scenarios.walk_reach_synthesis import load_demonstrations, load_primitives
 
     jumps = tuple(_goal_jump(j) for j in args.goal_jump)
-    task = DrawerTask(args.distance, args.slot, jumps, FilterMode(args.dynfilter), base_state=BaseState(args.base_state))
+    task = DrawerTask(args.distance, args.slot, jumps, FilterMode(args.dynfilter), base_state=_base_state(args))
     _disturbances(args)
     robot = load_robot(args.robot)
     try:  # before anything is learned or started
@@ -176,9 +222,9 @@ def _drawer(args: argparse.Namespace) -> int:
     primitives = load_primitives(robot)
     args.drawer = DrawerPlacement(task.distance, task.slot, tuple((j.time, j.distance) for j in jumps))
     robot, disturbances, hardware = _simulation(args)
-    with hardware as hw, _tick_log(args, robot, hw, task.control_dt) as recorders:
+    with hardware as hw, _on_the_robot(args, robot, hw, task.control_dt) as (recorders, pacer):
         report = run_drawer(robot, hw, primitives, task, out_dir=args.out, log=_log, progress=not args.quiet,
-                            disturbances=disturbances, recorders=recorders)
+                            disturbances=disturbances, recorders=recorders, pacer=pacer)
     if args.out is not None:
         from robot_ctrl.eval.html_report import render_report
 
@@ -455,6 +501,8 @@ def _crowd_walk(args: argparse.Namespace) -> int:
     from robot_ctrl.robot.model import load_robot
     from robot_ctrl.scenarios.group_walk import GroupWalk, run_group_walk
 
+    if HardwareKind.parse(args.hw).real:
+        raise ConfigError(f"crowd walk: a group walks in one simulated world, not on real servos (--hw {args.hw})")
     _check_outputs(args)
     disturbances = _disturbances(args)
     robot = load_robot(args.robot)
@@ -476,6 +524,8 @@ def _crowd_gait_profile(args: argparse.Namespace) -> int:
     if not (0.05 <= args.speed <= 0.3) or not (2 <= args.cycles <= 50):
         raise ConfigError(f"crowd gait-profile: --speed {args.speed} must be in [0.05, 0.3] m/s and --cycles "
                           f"{args.cycles} in [2, 50]")
+    if HardwareKind.parse(args.hw).real:
+        raise ConfigError(f"crowd gait-profile measures a simulated robot's gait, not real servos (--hw {args.hw})")
     robot, _, hardware = _simulation(args)
     out = args.out or MODELS / f"{robot.name}_gait_profile.json"
     with hardware as hw:
@@ -517,10 +567,11 @@ def _robot_parent() -> argparse.ArgumentParser:
 def _simulation_parent(robot: argparse.ArgumentParser) -> argparse.ArgumentParser:
     """Options of every MuJoCo scenario."""
     parent = argparse.ArgumentParser(add_help=False, parents=[robot])
-    parent.add_argument("--hw", choices=[k.value for k in HardwareKind if not k.real], default=HardwareKind.MUJOCO.value,
-                        help="backend, always behind the safety layer: MuJoCo, or MuJoCo behind an emulated "
-                             "MIT-CAN / Dynamixel servo bus (real servos: robot-ctrl hw)")
-    parent.add_argument("--bus-config", help="bus mapping (configs/hw name or YAML path) for the emulated buses")
+    parent.add_argument("--hw", choices=[k.value for k in HardwareKind], default=HardwareKind.MUJOCO.value,
+                        help="backend, always behind the safety layer: MuJoCo, MuJoCo behind an emulated MIT-CAN / "
+                             "Dynamixel servo bus, or real servos (mit-can, dynamixel: the start sequence first, "
+                             "then the scenario on the estimated base; docs/hardware.md)")
+    parent.add_argument("--bus-config", help="bus mapping (configs/hw name or YAML path); required for real servos")
     parent.add_argument("--viewer", action="store_true", help="open the MuJoCo viewer (needs a display)")
     parent.add_argument("--video", type=Path, metavar="FILE.mp4",
                         help="record the run at 30 fps (MuJoCo offscreen renderer; MUJOCO_GL=egl when there is no display)")
@@ -559,6 +610,7 @@ def _add_balance(sub, sim) -> None:
                        description="Balance demo at 200 Hz control: half-sitting, CoM over the left foot, right foot "
                                    "up 5 cm and back, CoM back, right-hand reach to (0.4, -0.2, 0.8) m in the start "
                                    "floor frame and back. Exit status 1 if the robot fell.")
+    _base_state_arg(p)
     p.add_argument("--out", type=Path, help="write DIR/report.json")
     _log_arg(p)
     p.set_defaults(run=_balance)
@@ -613,9 +665,10 @@ def _log_arg(p) -> None:
 
 
 def _base_state_arg(p) -> None:
-    p.add_argument("--base-state", choices=[m.value for m in BaseState], default=BaseState.SIMULATED.value,
-                   help="the controller's base pose and velocity: the simulator's (default), or estimated from the "
-                        "IMU, the encoders and the foot force sensors as on a real robot (control/base_estimator.py)")
+    p.add_argument("--base-state", choices=[m.value for m in BaseState],
+                   help="the controller's base pose and velocity: the simulator's (default in simulation), or "
+                        "estimated from the IMU, the encoders and the foot force sensors (control/base_estimator.py; "
+                        "the only one on real servos)")
 
 
 def _graph_args(p) -> None:

@@ -69,6 +69,14 @@ class HardwareAdapter(ABC):
         self._guarded(self._on_activate)
         self._state = S.ACTIVE
 
+    def bring_up(self) -> None:
+        """:meth:`configure` and :meth:`activate`, whichever is still to do (a start sequence may
+        have done both)."""
+        if self._state is S.UNCONFIGURED:
+            self.configure()
+        if self._state is S.INACTIVE:
+            self.activate()
+
     def deactivate(self) -> None:
         self._require("deactivate", S.ACTIVE)
         self._guarded(self._on_deactivate)

@@ -16,6 +16,7 @@ entry per joint of the robot::
     max_missed_replies: 3                 # a motor's last values are held this many ticks, then a fault
     drive_timeout_s: 0.1                  # mit_can: drives with a CAN timeout (Damiao) disable themselves
                                           # after this long without a command
+    body_sensors: my_lab.sensors:open     # the IMU and foot F/T driver, module:function (hw/body_sensors.py)
 
 A mit_can model may name its reply format, ``reply: mit6`` (default), ``cubemars`` or ``damiao``
 (``mit_protocol``); the motors of one bus share one format, and Damiao ids are 1..15.
@@ -31,6 +32,7 @@ Every field is checked when the file is loaded; errors name the joint and the fi
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -67,6 +69,7 @@ class BusConfig:
     reply_timeout: float = 0.001  # [s] the longest wait for a tick's replies (mit_can)
     max_missed_replies: int = 3  # replies a motor may miss in a row (its last values held) before a fault
     drive_timeout: float = 0.1  # [s] set on drives that have a CAN timeout (mit_can, Damiao)
+    body_sensors: str | None = None  # "module:function" opening the IMU and foot F/T driver (hw/body_sensors.py)
 
     def reply_format(self, motor: MotorMap) -> str:
         """The reply format of ``motor``'s model (mit_can)."""
@@ -153,6 +156,10 @@ def load_bus_config(name_or_path: str | Path, joint_names: tuple[str, ...]) -> B
     drive_timeout = data.get("drive_timeout_s", BusConfig.drive_timeout)
     _require(isinstance(drive_timeout, (int, float)) and 0.001 <= drive_timeout <= 10.0,
              f"drive_timeout_s = {drive_timeout!r} is outside the allowed range [0.001, 10] s", path)
+    sensors = data.get("body_sensors")
+    _require(sensors is None or (isinstance(sensors, str) and re.fullmatch(r"[A-Za-z_][\w.]*:[A-Za-z_]\w*", sensors)),
+             f"body_sensors = {sensors!r} must be module:function (a Python module on the path and its function)",
+             path)
     joints = data.get("joints") or {}
     _require(isinstance(joints, dict), "joints must map joint names to motors", path)
     missing = [j for j in joint_names if j not in joints]
@@ -182,7 +189,8 @@ def load_bus_config(name_or_path: str | Path, joint_names: tuple[str, ...]) -> B
         gear = entry.get("gear_ratio", 1.0)
         _require(isinstance(gear, (int, float)) and gear > 0, f"joints.{joint}.gear_ratio must be > 0", path)
         motors.append(MotorMap(joint, bus, motor_id, model, int(direction), float(zero), float(gear)))
-    config = BusConfig(backend, buses, models, tuple(motors), path, float(timeout), missed, float(drive_timeout))
+    config = BusConfig(backend, buses, models, tuple(motors), path, float(timeout), missed, float(drive_timeout),
+                       sensors)
     if backend == "mit_can":
         formats: dict[str, tuple[str, str]] = {}
         for m in motors:

@@ -8,8 +8,10 @@
 - ``dynamixel-emulated``: ``DynamixelBackend`` behind a ``SafetyLayer``, over a pseudo-terminal to a
   ``DynamixelEmulator`` driving the MuJoCo simulation.
 - ``mit-can``, ``dynamixel``: real drives on the interfaces the bus config (``--bus-config``, required)
-  names, behind a ``SafetyLayer`` on the wall clock with its watchdog thread. They read the joints
-  only (no base pose, IMU or foot sensors): the bring-up commands (``robot-ctrl hw``) run on them.
+  names, behind a ``SafetyLayer`` on the wall clock with its watchdog thread. The IMU and the foot
+  force/torque sensors come from the driver the bus config's ``body_sensors`` names
+  (``hw/body_sensors.py``); without one they read the joints only, which the bring-up commands
+  (``robot-ctrl hw``) need, and the scenarios refuse to run.
 
 ``disturbances`` (pushes, model mismatch, latency, sensor noise: ``hw/disturbances.py``) act on the
 simulated robot, on the emulated buses' too. Every kind comes behind a ``SafetyLayer``: what a
@@ -25,10 +27,12 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import time
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Iterator
+from typing import Callable, Iterator
 
+from robot_ctrl.hw.body_sensors import open_body_sensors
 from robot_ctrl.hw.bus_config import load_bus_config
 from robot_ctrl.hw.disturbances import Disturbances
 from robot_ctrl.hw.drawer_cabinet import DrawerPlacement
@@ -45,9 +49,11 @@ from robot_ctrl.robot.model import RobotModel
 def open_hardware(kind: HardwareKind | str, robot: RobotModel, bus_config: str | None = None, viewer: bool = False,
                   control_dt: float = 0.005, video: Path | None = None,
                   disturbances: Disturbances = Disturbances(),
-                  drawer: DrawerPlacement | None = None) -> Iterator[SafetyLayer]:
+                  drawer: DrawerPlacement | None = None,
+                  clock: Callable[[], float] = time.monotonic) -> Iterator[SafetyLayer]:
     """The adapter for ``kind``; emulators are started before and stopped after the block.
-    ``drawer``: the walk-and-reach task's cabinet in the robot's world (``hw/drawer_cabinet.py``)."""
+    ``drawer``: the walk-and-reach task's cabinet in the robot's world (``hw/drawer_cabinet.py``);
+    ``clock``: what real servos' backend and safety layer measure time with."""
     kind = HardwareKind.parse(kind)
     if disturbances.reply_loss and kind is not HardwareKind.MIT_CAN_EMULATED:
         raise ValueError(f"reply loss acts on the emulated MIT-CAN bus (--hw mit-can-emulated), not on {kind.value}")
@@ -62,7 +68,7 @@ def open_hardware(kind: HardwareKind | str, robot: RobotModel, bus_config: str |
         return
     limits = SafetyLimits.from_robot(robot, control_dt)
     if kind.real:
-        hw = SafetyLayer(_bus_backend(kind, robot, bus_config), limits)  # the wall clock
+        hw = SafetyLayer(_bus_backend(kind, robot, bus_config, clock), limits, clock=clock)
         hw.start_watchdog()
         try:
             yield hw
@@ -98,19 +104,21 @@ def open_hardware(kind: HardwareKind | str, robot: RobotModel, bus_config: str |
         emulator.close()
 
 
-def _bus_backend(kind: HardwareKind, robot: RobotModel, bus_config: str | None):
-    """The backend of real drives, on the interfaces the bus config names (no body sensors)."""
+def _bus_backend(kind: HardwareKind, robot: RobotModel, bus_config: str | None, clock: Callable[[], float]):
+    """The backend of real drives, on the interfaces the bus config names, with the body sensors it
+    names (if any)."""
     if bus_config is None:
         raise ConfigError(f"--hw {kind.value} needs --bus-config: the YAML naming your buses, CAN ids, directions "
                          "and zero offsets (start from configs/hw/talos_mit_can.yaml or talos_dynamixel.yaml)")
     config = load_bus_config(bus_config, robot.joint_names)
+    sensors = open_body_sensors(config, robot) if config.body_sensors else None
     if kind is HardwareKind.MIT_CAN:
         from robot_ctrl.hw.mit_can_backend import MitCanBackend
 
-        return MitCanBackend(config, robot.kd)
+        return MitCanBackend(config, robot.kd, body_sensors=sensors, clock=clock)
     from robot_ctrl.hw.dynamixel_backend import DynamixelBackend
 
-    return DynamixelBackend(config, robot.kd, effort=robot.effort)
+    return DynamixelBackend(config, robot.kd, body_sensors=sensors, clock=clock, effort=robot.effort)
 
 
 @contextmanager

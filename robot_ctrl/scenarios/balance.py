@@ -12,12 +12,15 @@ import pinocchio as pin
 
 from robot_ctrl.control.balance_controller import BalanceController, BalanceParams
 from robot_ctrl.control.loop import ControlLoop
+from robot_ctrl.control.pacer import Pacer
 from robot_ctrl.eval import FallCriterion, RunMetrics
 from robot_ctrl.eval.recorders import Fell, MetricsRecorder, ProgressBar, TimeLimit
 from robot_ctrl.eval.report_file import write_report
 from robot_ctrl.hw.disturbances import Disturbances
 from robot_ctrl.hw.safety import SafetyLayer
+from robot_ctrl.modes import BaseState
 from robot_ctrl.robot.model import RobotModel, configuration
+from robot_ctrl.scenarios.run_start import start_run
 
 
 class HandError:
@@ -49,21 +52,20 @@ class HandError:
 
 def run_balance(robot: RobotModel, hw: SafetyLayer, params: BalanceParams = BalanceParams(),
                 out_dir: Path | None = None, log: Callable[[str], None] = print, progress: bool = False,
-                disturbances: Disturbances = Disturbances(), recorders: Sequence = ()) -> dict:
+                disturbances: Disturbances = Disturbances(), recorders: Sequence = (),
+                base_state: BaseState = BaseState.SIMULATED, pacer: Pacer | None = None) -> dict:
     """Run the balance demo on ``hw`` (from :func:`robot_ctrl.hw.hardware.open_hardware`); return
-    (and write to ``out_dir``) the report; ``recorders`` (a tick log) see every tick."""
+    (and write to ``out_dir``) the report; ``recorders`` (a tick log) see every tick; the
+    controller sees the base as ``base_state`` says; ``pacer`` keeps a real robot's ticks on time."""
     dt = params.control_dt
-    hw.configure()
-    hw.activate()
-    state = hw.read()
-    if state.base_pos is None:
-        raise ValueError("the balance demo needs a backend that reports the base pose")
-    controller = BalanceController(robot, state, params)
+    controller, view, state = start_run(robot, hw, base_state, lambda seen: BalanceController(robot, seen, params),
+                                        pacer, recorders, log)
     metrics = RunMetrics(robot.joint_names, robot.effort, FallCriterion(float(state.base_pos[2])))
     hand = HandError(controller, log)
     bar = ProgressBar(controller.duration, progress)
-    loop = ControlLoop([hw], [controller], dt, recorders=[MetricsRecorder([metrics]), hand, bar, *recorders],
-                       stops=[Fell([metrics]), TimeLimit(controller.duration - dt / 2, "motion done:")])
+    loop = ControlLoop([view.hardware(hw)], [view.stepped], dt,
+                       recorders=[MetricsRecorder([metrics]), hand, bar, *view.recorders, *recorders],
+                       stops=[Fell([metrics]), TimeLimit(controller.duration - dt / 2, "motion done:")], pacer=pacer)
     try:
         result = loop.run([state])
     finally:
@@ -71,9 +73,11 @@ def run_balance(robot: RobotModel, hw: SafetyLayer, params: BalanceParams = Bala
     if metrics.fell:
         log(result.stop_reason)
     report = metrics.report() | dict(robot=robot.name, hand_error_m=hand.error,
-                                     hand_target_floor_m=list(params.hand_target), safety=hw.report(),
-                                     disturbances=disturbances.to_dict(),
+                                     hand_target_floor_m=list(params.hand_target), **view.report(),
+                                     safety=hw.report(), disturbances=disturbances.to_dict(),
                                      rtf=round(result.rtf, 3), control_rate_hz=round(1.0 / dt, 3))
+    if pacer is not None:
+        report["timing"] = pacer.report()
     log(f"safety layer: {report['safety']}")
     log(f"fell: {str(report['fell']).lower()}  hand_error_m: {hand.error}  peak_torque_ratio: "
         f"{report['peak_torque_ratio']:.3f} ({report['peak_torque_joint']})  peak_grf_n: {report['peak_grf_n']}  "

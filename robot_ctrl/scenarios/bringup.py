@@ -73,8 +73,7 @@ def move(robot: RobotModel, hw: SafetyLayer, target: Callable[[np.ndarray], np.n
     """The start sequence from the measured posture to ``target(measured q)`` (default
     half-sitting), then ``HOLD_S`` of holding; ``pacer`` on real hardware; ``recorders`` (a tick
     log) see every tick."""
-    hw.configure()
-    hw.activate()
+    hw.bring_up()
     state = hw.read()
     try:
         goal = np.array(robot.config.half_sitting) if target is None else target(np.asarray(state.q, dtype=float))
@@ -91,6 +90,20 @@ def move(robot: RobotModel, hw: SafetyLayer, target: Callable[[np.ndarray], np.n
               round(sequence.largest_error, 4), "final_error_rad": round(float(error.max()), 4),
               "final_error_joint": robot.joint_names[int(error.argmax())], "safety": hw.report()}
     return report | ({"timing": pacer.report()} if pacer is not None else {})
+
+
+def start_robot(robot: RobotModel, hw: SafetyLayer, control_dt: float, pacer: Pacer,
+                recorders: Sequence = (), log: Callable[[str], None] = print) -> dict:
+    """Before a scenario on real servos: the start sequence to half-sitting and its hold (:func:`move`),
+    on ``pacer``. Raises :class:`HardwareFault` (the servos in damping) if it did not settle."""
+    report = move(robot, hw, None, StartParams(control_dt=control_dt), pacer, recorders)
+    log(f"start sequence: {'held half-sitting' if report['reached'] else 'did not settle'}, largest tracking "
+        f"error {report['largest_tracking_error_rad']} rad")
+    if not report["reached"]:
+        hw.estop()
+        raise HardwareFault(f"the start sequence did not settle (final error {report['final_error_rad']} rad at "
+                            f"{report['final_error_joint']}); the servos were sent damping")
+    return report
 
 
 def jog_target(robot: RobotModel, joint: str, delta: float) -> Callable[[np.ndarray], np.ndarray]:

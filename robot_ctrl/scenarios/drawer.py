@@ -13,6 +13,7 @@ from typing import Callable, Sequence
 
 from robot_ctrl.control.drawer_targets import DrawerTargets
 from robot_ctrl.control.loop import ControlLoop
+from robot_ctrl.control.pacer import Pacer
 from robot_ctrl.control.walk_reach_commander import WalkReachCommander
 from robot_ctrl.control.walking_controller import WalkingController
 from robot_ctrl.eval import FallCriterion, RunMetrics
@@ -27,7 +28,7 @@ from robot_ctrl.hw.disturbances import Disturbances
 from robot_ctrl.hw.safety import SafetyLayer
 from robot_ctrl.modes import BaseState, FilterMode
 from robot_ctrl.robot.model import RobotModel
-from robot_ctrl.scenarios.base_view import seeing_base
+from robot_ctrl.scenarios.run_start import start_run
 from robot_ctrl.sot.whole_body_ik import TRUNK_POSTURE_FACTOR
 from robot_ctrl.synthesis.primitives import WalkReachPrimitives
 from robot_ctrl.synthesis.synthesizer import GoalJump
@@ -67,18 +68,14 @@ class DrawerTask:
 def run_drawer(robot: RobotModel, hw: SafetyLayer, primitives: WalkReachPrimitives, task: DrawerTask,
                out_dir: Path | None = None, log: Callable[[str], None] = print, progress: bool = False,
                disturbances: Disturbances = Disturbances(), recorders: Sequence = (),
-               geometry: DrawerGeometry = DrawerGeometry()) -> dict:
+               geometry: DrawerGeometry = DrawerGeometry(), pacer: Pacer | None = None) -> dict:
     """Run ``task`` on ``hw`` (from ``open_hardware(..., drawer=...)``, which placed the cabinet);
-    ``recorders`` (a tick log) see every tick."""
+    ``recorders`` (a tick log) see every tick; ``pacer`` keeps a real robot's ticks on time (the
+    cabinet then stands where the task says, and its drawer is not measured)."""
     dt = task.control_dt
-    hw.configure()
-    hw.activate()
-    state = hw.read()
-    if state.base_pos is None or state.foot_wrench is None:
-        raise ValueError("the drawer task needs a backend that reports the base pose and the foot wrenches")
-    controller, view = seeing_base(task.base_state, robot, state, lambda seen: WalkingController(
+    controller, view, state = start_run(robot, hw, task.base_state, lambda seen: WalkingController(
         robot, seen, None, dt, dynfilter=task.dynfilter, dynfilter_worker=True, trunk_weight=TRUNK_POSTURE_FACTOR,
-        balance_with_arms=False))
+        balance_with_arms=False), pacer, recorders, log)
     start = base_pose_xy_yaw(state.base_pos, state.base_quat_xyzw)
     targets = DrawerTargets(start, float(state.base_pos[2]), task.distance, task.slot, task.jumps, geometry)
     commander = WalkReachCommander(controller, primitives, targets, log)
@@ -91,9 +88,9 @@ def run_drawer(robot: RobotModel, hw: SafetyLayer, primitives: WalkReachPrimitiv
                    STAND_AFTER, "the task ended")
     limit = 8.0 * max([task.distance] + [j.distance for j in task.jumps]) + 15.0
     bar = ProgressBar(limit / 2, progress)
-    loop = ControlLoop([hw], [view.stepped], dt, commanders=[commander],
+    loop = ControlLoop([view.hardware(hw)], [view.stepped], dt, commanders=[commander],
                        recorders=[MetricsRecorder([metrics]), walk, drawer, bar, *view.recorders, *recorders],
-                       stops=[Fell([metrics]), done, TimeLimit(limit, "the task did not end")])
+                       stops=[Fell([metrics]), done, TimeLimit(limit, "the task did not end")], pacer=pacer)
     try:
         result = loop.run([state])
     finally:
@@ -108,6 +105,8 @@ def run_drawer(robot: RobotModel, hw: SafetyLayer, primitives: WalkReachPrimitiv
         dynfilter_fallbacks=controller.filter_fallbacks, **view.report(), safety=hw.report(), disturbances=disturbances.to_dict(),
         rtf=round(result.rtf, 3), control_rate_hz=round(1.0 / dt, 3))
     report["success"] = report["success"] and done.held(result.states[0].t) >= STAND_AFTER
+    if pacer is not None:
+        report["timing"] = pacer.report()
     log(f"success: {str(report['success']).lower()}  fell: {str(report['fell']).lower()}  steps "
         f"{report['planned_step_lengths_m']} planned, {report['realized_step_lengths_m']} realized [m]  pelvis to "
         f"drawer {report['final_pelvis_to_drawer_m']} m (comfort {report['comfort_distance_m']})  drawer open "

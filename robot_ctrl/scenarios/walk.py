@@ -13,6 +13,7 @@ from typing import Callable, Sequence
 
 from robot_ctrl.control.arm_swing import arm_motion
 from robot_ctrl.control.loop import ControlLoop
+from robot_ctrl.control.pacer import Pacer
 from robot_ctrl.control.path_commander import PathCommander
 from robot_ctrl.control.path_follower import WalkGoal
 from robot_ctrl.control.walking_controller import WalkingController
@@ -26,7 +27,7 @@ from robot_ctrl.hw.disturbances import Disturbances
 from robot_ctrl.hw.safety import SafetyLayer
 from robot_ctrl.modes import ArmMotion, BaseState, FilterMode
 from robot_ctrl.robot.model import RobotModel
-from robot_ctrl.scenarios.base_view import seeing_base
+from robot_ctrl.scenarios.run_start import start_run
 
 STAND_AFTER = 2.0  # [s] standing after the stop
 
@@ -45,18 +46,14 @@ class WalkSettings:
 
 def run_walk(robot: RobotModel, hw: SafetyLayer, goal: WalkGoal, settings: WalkSettings = WalkSettings(),
              out_dir: Path | None = None, log: Callable[[str], None] = print, progress: bool = False,
-             disturbances: Disturbances = Disturbances(), recorders: Sequence = ()) -> dict:
+             disturbances: Disturbances = Disturbances(), recorders: Sequence = (), pacer: Pacer | None = None) -> dict:
     """Walk ``goal`` on ``hw`` (from :func:`robot_ctrl.hw.hardware.open_hardware`, which applied
-    ``disturbances``: the report lists them) and report; ``recorders`` (a tick log) see every tick."""
+    ``disturbances``: the report lists them) and report; ``recorders`` (a tick log) see every tick;
+    ``pacer`` keeps a real robot's ticks on time."""
     s, dt = settings, settings.control_dt
-    hw.configure()
-    hw.activate()
-    state = hw.read()
-    if state.base_pos is None or state.foot_wrench is None:
-        raise ValueError("walking needs a backend that reports the base pose and the foot wrenches")
-    controller, view = seeing_base(s.base_state, robot, state, lambda seen: WalkingController(
+    controller, view, state = start_run(robot, hw, s.base_state, lambda seen: WalkingController(
         robot, seen, None, dt, s.stabilize, arm_motion(s.arms, robot), s.dynfilter, s.dynfilter_passes,
-        s.dynfilter_worker))
+        s.dynfilter_worker), pacer, recorders, log)
     start = base_pose_xy_yaw(state.base_pos, state.base_quat_xyzw)
     path = PathCommander(controller, goal, start, log)
     metrics = RunMetrics(robot.joint_names, robot.effort, FallCriterion(float(state.base_pos[2])))
@@ -65,8 +62,9 @@ def run_walk(robot: RobotModel, hw: SafetyLayer, goal: WalkGoal, settings: WalkS
                                             s.grf_limit_ratio), start, log)
     stood = HeldFor(lambda: controller.standing and path.done, STAND_AFTER, "stood at the goal")
     bar = ProgressBar(path.duration + STAND_AFTER + 1.0, progress)
-    loop = ControlLoop([hw], [view.stepped], dt, recorders=[MetricsRecorder([metrics]), walk, bar, *view.recorders, *recorders],
-                       stops=[Fell([metrics]), stood, TimeLimit(path.time_limit, "did not finish the path")])
+    loop = ControlLoop([view.hardware(hw)], [view.stepped], dt,
+                       recorders=[MetricsRecorder([metrics]), walk, bar, *view.recorders, *recorders],
+                       stops=[Fell([metrics]), stood, TimeLimit(path.time_limit, "did not finish the path")], pacer=pacer)
     try:
         result = loop.run([state])
     finally:
@@ -79,6 +77,8 @@ def run_walk(robot: RobotModel, hw: SafetyLayer, goal: WalkGoal, settings: WalkS
         dynfilter_fallbacks=controller.filter_fallbacks,
         dynfilter_worker=s.dynfilter_worker and filtered, **view.report(), safety=hw.report(),
         disturbances=disturbances.to_dict(), rtf=round(result.rtf, 3), control_rate_hz=round(1.0 / dt, 3))
+    if pacer is not None:
+        report["timing"] = pacer.report()
     log(f"fell: {str(report['fell']).lower()}  final base (x, y, yaw) {report['final_base_xy_yaw']} vs commanded "
         f"{report['commanded_base_xy_yaw']}  zmp_in_support_ratio {report['zmp_in_support_ratio']}  "
         f"peak_torque_ratio {report['peak_torque_ratio']:.3f}  steps {len(walk.footsteps)}  rtf {report['rtf']}")

@@ -1,0 +1,44 @@
+"""The start of a scenario run: the hardware brought up, the controller built, and on real servos
+the start sequence, in that order.
+
+On real servos the robot first moves to its start posture (``bringup.start_robot``: checks, a
+minimum-jerk move at reduced gains, a hold). The scenario's controller is built before that move,
+from the state the move ends in (the measured body sensors, the joints at the start posture),
+and its first tick prepared, because both take longer than the safety layer's watchdog allows
+between two commands: done after the move, the servos would drop to damping in between."""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Callable, Sequence, TypeVar
+
+import numpy as np
+
+from robot_ctrl.control.pacer import Pacer
+from robot_ctrl.hw.safety import SafetyLayer
+from robot_ctrl.hw.types import JointState
+from robot_ctrl.modes import BaseState
+from robot_ctrl.robot.model import RobotModel
+from robot_ctrl.scenarios.base_view import BaseView, seeing_base
+from robot_ctrl.scenarios.bringup import start_robot
+
+C = TypeVar("C")
+
+
+def start_run(robot: RobotModel, hw: SafetyLayer, base_state: BaseState, build: Callable[[JointState], C],
+              pacer: Pacer | None = None, recorders: Sequence = (),
+              log: Callable[[str], None] = print) -> tuple[C, BaseView, JointState]:
+    """``(controller, view, first state)`` for a run on ``hw``: ``build`` makes the controller from
+    the first state as ``base_state`` shows it (``seeing_base``); with ``pacer`` (real servos) the
+    start sequence runs first, its ticks seen by ``recorders``."""
+    hw.bring_up()
+    state = hw.read()
+    if pacer is None:
+        controller, view = seeing_base(base_state, robot, state, build)
+        return controller, view, view.first
+    at_start = dataclasses.replace(state, q=np.array(robot.config.half_sitting, dtype=float),
+                                   dq=np.zeros(robot.nj))
+    controller, view = seeing_base(base_state, robot, at_start, build)
+    view.stepped.prepare()  # the first tick's planning, done before the move, not between it and the run
+    start_robot(robot, hw, pacer.dt, pacer, recorders, log)
+    return controller, view, view.hardware(hw).read()
