@@ -19,3 +19,8 @@ def open_sensors(robot, config):
         return dataclasses.replace(state, t=CLOCK() - opened, base_pos=None, base_linvel=None, floor_contacts=(),
                                    scene=None)
     return read
+
+
+def open_missing(robot, config):
+    """A driver whose device is not there."""
+    raise OSError("no such device: /dev/imu0")

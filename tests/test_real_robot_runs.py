@@ -93,3 +93,11 @@ def test_scenarios_on_real_servos_refuse_what_only_a_simulation_has(talos, servo
                            (["--video", "x.mp4"], "show the simulation")):
         assert main(["balance", "--hw", "mit-can", "--bus-config", str(path), *extra]) == 2
         assert message in capsys.readouterr().err
+    missing = path.with_name("missing.yaml")
+    missing.write_text(path.read_text().replace("emulated_body_sensors:open_sensors", "emulated_body_sensors:open_missing"))
+    assert main(["walk", "--hw", "mit-can", "--bus-config", str(missing), "--distance", "1"]) == 3
+    assert "the driver did not open (OSError: no such device: /dev/imu0)" in capsys.readouterr().err
+    malformed = path.with_name("malformed.yaml")
+    malformed.write_text(path.read_text().replace("emulated_body_sensors:open_sensors", "'not a driver'"))
+    assert main(["walk", "--hw", "mit-can", "--bus-config", str(malformed)]) == 2
+    assert "body_sensors = 'not a driver' must be module:function" in capsys.readouterr().err

@@ -23,6 +23,7 @@ from __future__ import annotations
 import importlib
 from typing import Callable
 
+from robot_ctrl.hw.adapter import HardwareFault
 from robot_ctrl.hw.bus_config import BusConfig
 from robot_ctrl.hw.types import JointState
 from robot_ctrl.robot.config import ConfigError
@@ -39,7 +40,10 @@ def open_body_sensors(config: BusConfig, robot) -> Callable[[], JointState]:
     opener = getattr(module, function, None)
     if not callable(opener):
         raise ConfigError(f"{where}: {module_name} has no function {function}")
-    read = opener(robot, config)
+    try:
+        read = opener(robot, config)
+    except Exception as exc:  # the lab's driver: whatever it raises, one line and exit status 3
+        raise HardwareFault(f"{where}: the driver did not open ({type(exc).__name__}: {exc})") from exc
     if not callable(read):
         raise ConfigError(f"{where}: {function}(robot, config) must return a function that reads the sensors")
     return read
