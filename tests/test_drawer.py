@@ -37,6 +37,16 @@ def test_drawer_task_end_to_end(tmp_path):
     assert page.count("data:image/png;base64,") == 6 and "Fig. 3.47" in page
 
 
+def test_the_demo_drawer_task_succeeds(tmp_path):
+    # `make demo`, the first command a newcomer runs: it succeeds, and its last action (the pull and
+    # the reach) does not move the pelvis (no foot re-stepped to correct a few millimetres).
+    status = main(["drawer", "--robot", "talos", "--distance", "2.0", "--slot", "front_left", "--quiet",
+                   "--out", str(tmp_path)])
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert status == 0 and report["success"] is True
+    assert abs(report["step_length_errors_m"][-1]) <= 0.005 and report["hand_to_object_m"] <= 0.02
+
+
 def test_drawer_takes_a_real_force_to_open(talos):
     """Pulling the drawer with the grasp welded: the force the hand needs is the runners' friction
     (plus damping), measured through the weld's constraint force."""

@@ -35,9 +35,11 @@ from robot_ctrl.wpg.mpc import MpcInfeasible, MpcProblem, MpcSolution, Reach, Sa
 from robot_ctrl.wpg.params import WalkParams
 from robot_ctrl.wpg.swing import SwingTrajectory
 
-#: [m] a foot this close to its stop footstep is there: the plan follows the real feet (``shift``),
-#: which land within millimetres of where they were sent, never exactly.
-STOP_TOLERANCE = 0.005
+#: [m] a foot this close to its stop footstep (in x and in y) is there: the plan follows the real
+#: feet (``shift``), which land within millimetres of where they were sent, never exactly, and a
+#: step to correct less than this would land as far off again, moving the robot while its hands
+#: work.
+STOP_TOLERANCE = 0.01
 
 
 @dataclass(frozen=True)
