@@ -98,8 +98,8 @@ def main() -> None:
           f"median {med:.1f} us, p99 {p99:.1f} us  (hand error after {args.ticks} ticks {ours_err * 1e3:.1f} mm)")
     try:
         import mink  # noqa: F401
-    except ImportError:
-        print("mink not installed (pip install -e '.[bench]'): no comparison")
+    except ImportError as exc:
+        print(f"mink does not import ({exc}; pip install -e '.[bench]'): no comparison")
         return
     time_mink(robot, 100)
     theirs, theirs_err = time_mink(robot, args.ticks)

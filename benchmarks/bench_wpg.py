@@ -129,8 +129,8 @@ def main() -> None:
                 print(f"  plugin {plugin:8s}: failed ({str(exc).splitlines()[0][:100]})")
     try:
         import placo  # noqa: F401
-    except ImportError:
-        print("placo not installed (make bench, or pip install -e '.[bench]'): no comparison")
+    except ImportError as exc:
+        print(f"placo does not import ({exc}; make bench, or pip install -e '.[bench]'): no comparison")
         return
     plans, replans = run_placo(robot, params)
     pmed, _ = stats_ms(plans)
