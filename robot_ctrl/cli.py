@@ -123,13 +123,21 @@ def _base_state(args: argparse.Namespace) -> BaseState:
 def _on_the_robot(args: argparse.Namespace, robot, hw, control_dt: float):
     """The run's recorders (the tick log) and, on real servos, its pacer (absolute deadlines; the
     scenario then starts with the start sequence, ``scenarios/run_start.py``)."""
-    from robot_ctrl.control.pacer import Pacer
-
-    pacer = Pacer(control_dt) if HardwareKind.parse(args.hw).real else None
-    if pacer is not None and not Pacer.request_realtime():
-        _log("robot-ctrl: no real-time scheduling (SCHED_FIFO not permitted); timing in the report")
+    pacer = _real_servo_pacer(HardwareKind.parse(args.hw), control_dt)
     with _tick_log(args, robot, hw, control_dt, pacer) as recorders:
         yield recorders, pacer
+
+
+def _real_servo_pacer(kind: HardwareKind, control_dt: float):
+    """The pacer of a loop on real servos (real-time scheduling asked for); None for a simulated
+    robot, which waits for its controller."""
+    from robot_ctrl.control.pacer import Pacer
+
+    if not kind.real:
+        return None
+    if not Pacer.request_realtime():
+        _log("robot-ctrl: no real-time scheduling (SCHED_FIFO not permitted); timing in the report")
+    return Pacer(control_dt)
 
 
 def _log_command(args: argparse.Namespace) -> int:
@@ -854,7 +862,6 @@ def _add_hw(sub, robot) -> None:
 
 
 def _hw(args: argparse.Namespace) -> int:
-    from robot_ctrl.control.pacer import Pacer
     from robot_ctrl.control.start_sequence import StartParams
     from robot_ctrl.hw.hardware import open_hardware
     from robot_ctrl.robot.model import load_robot
@@ -888,9 +895,7 @@ def _hw(args: argparse.Namespace) -> int:
         if args.action in ("scan", "check"):
             result = bringup.scan(robot, hw) if args.action == "scan" else bringup.check(robot, hw, params)
         else:
-            pacer = Pacer(params.control_dt) if kind.real else None
-            if pacer is not None and not Pacer.request_realtime():
-                print("robot-ctrl: no real-time scheduling (SCHED_FIFO not permitted); timing in the report")
+            pacer = _real_servo_pacer(kind, params.control_dt)
             with _tick_log(args, robot, hw, params.control_dt, pacer) as recorders:
                 result = bringup.move(robot, hw, target, params, pacer, recorders)
     for key, value in result.items():

@@ -92,20 +92,6 @@ def move(robot: RobotModel, hw: SafetyLayer, target: Callable[[np.ndarray], np.n
     return report | ({"timing": pacer.report()} if pacer is not None else {})
 
 
-def start_robot(robot: RobotModel, hw: SafetyLayer, control_dt: float, pacer: Pacer,
-                recorders: Sequence = (), log: Callable[[str], None] = print) -> dict:
-    """Before a scenario on real servos: the start sequence to half-sitting and its hold (:func:`move`),
-    on ``pacer``. Raises :class:`HardwareFault` (the servos in damping) if it did not settle."""
-    report = move(robot, hw, None, StartParams(control_dt=control_dt), pacer, recorders)
-    log(f"start sequence: {'held half-sitting' if report['reached'] else 'did not settle'}, largest tracking "
-        f"error {report['largest_tracking_error_rad']} rad")
-    if not report["reached"]:
-        hw.estop()
-        raise HardwareFault(f"the start sequence did not settle (final error {report['final_error_rad']} rad at "
-                            f"{report['final_error_joint']}); the servos were sent damping")
-    return report
-
-
 def jog_target(robot: RobotModel, joint: str, delta: float) -> Callable[[np.ndarray], np.ndarray]:
     """The measured posture (clipped into the limits, as every reference is) with ``joint`` moved by
     ``delta`` [rad]; the start sequence refuses a target outside the limits."""

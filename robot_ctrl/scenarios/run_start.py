@@ -1,8 +1,8 @@
 """The start of a scenario run: the hardware brought up, the controller built, and on real servos
 the start sequence, in that order.
 
-On real servos the robot first moves to its start posture (``bringup.start_robot``: checks, a
-minimum-jerk move at reduced gains, a hold). The scenario's controller is built before that move,
+On real servos the robot first moves to its start posture (``bringup.move``, as ``hw stand``:
+checks, a minimum-jerk move at reduced gains, a hold). The scenario's controller is built before that move,
 from the state the move ends in (the measured body sensors, the joints at the start posture),
 and its first tick prepared, because both take longer than the safety layer's watchdog allows
 between two commands: done after the move, the servos would drop to damping in between."""
@@ -15,12 +15,14 @@ from typing import Callable, Sequence, TypeVar
 import numpy as np
 
 from robot_ctrl.control.pacer import Pacer
+from robot_ctrl.control.start_sequence import StartParams
+from robot_ctrl.hw.adapter import HardwareFault
 from robot_ctrl.hw.safety import SafetyLayer
 from robot_ctrl.hw.types import JointState
 from robot_ctrl.modes import BaseState
 from robot_ctrl.robot.model import RobotModel
 from robot_ctrl.scenarios.base_view import BaseView, seeing_base
-from robot_ctrl.scenarios.bringup import start_robot
+from robot_ctrl.scenarios.bringup import move
 
 C = TypeVar("C")
 
@@ -40,5 +42,18 @@ def start_run(robot: RobotModel, hw: SafetyLayer, base_state: BaseState, build: 
                                    dq=np.zeros(robot.nj))
     controller, view = seeing_base(base_state, robot, at_start, build)
     view.stepped.prepare()  # the first tick's planning, done before the move, not between it and the run
-    start_robot(robot, hw, pacer.dt, pacer, recorders, log)
+    _start_sequence(robot, hw, pacer, recorders, log)
     return controller, view, view.hardware(hw).read()
+
+
+def _start_sequence(robot: RobotModel, hw: SafetyLayer, pacer: Pacer, recorders: Sequence,
+                    log: Callable[[str], None]) -> None:
+    """The start sequence to half-sitting and its hold, on ``pacer``; a :class:`HardwareFault` (the
+    servos in damping) if it did not settle."""
+    report = move(robot, hw, None, StartParams(control_dt=pacer.dt), pacer, recorders)
+    log(f"start sequence: {'held half-sitting' if report['reached'] else 'did not settle'}, largest tracking "
+        f"error {report['largest_tracking_error_rad']} rad")
+    if not report["reached"]:
+        hw.estop()
+        raise HardwareFault(f"the start sequence did not settle (final error {report['final_error_rad']} rad at "
+                            f"{report['final_error_joint']}); the servos were sent damping")
