@@ -12,12 +12,19 @@ def test_a_small_campaign(tmp_path):
                             log=lambda _: None, progress=False)
     # 0.2 N·s/kg to the right mid-step is survived, 2 N·s/kg is not: the largest survived is 0.2.
     (cell,) = result["largest_survived_push"]
-    assert cell == {"direction_deg": -90, "phase": "single_mid", "impulse_ns_per_kg": 0.2}
+    bound = cell["lip_capturable_ns_per_kg"]
+    assert cell == {"direction_deg": -90, "phase": "single_mid", "impulse_ns_per_kg": 0.2,
+                    "lip_capturable_ns_per_kg": bound}
     pushed = json.loads((tmp_path / "push_single_mid_-90_2.0" / "report.json").read_text())
     assert pushed["fell"] is True and pushed["disturbances"]["pushes"][0]["impulse_ns_per_kg"] == 2.0
+    # Mid-step on the right foot, pushed right: only the right sole's outer edge can catch it (the feet
+    # do not cross), from a DCM a few centimetres inside that edge: a bound between the two pushes.
+    assert pushed["push_capture"] == [{"time_s": 2.8, "support": "right", "lip_capturable_ns_per_kg": bound}]
+    assert 0.3 < bound < 0.6
     (latency,) = result["mismatch"]
     assert latency["walked"] and latency["final_position_error_m"] < 0.05
     page = (tmp_path / "robustness.html").read_text()
+    assert f"<td>0.2 ({bound:.2f})</td>" in page
     assert "data:image/png;base64," in page and "latency 10 ms" in page and "http" not in page.replace("http-equiv", "")
     assert json.loads((tmp_path / "robustness.json").read_text()) == json.loads(json.dumps(result))
 

@@ -1,6 +1,7 @@
 """``robustness.html``: the robustness campaign as a self-contained page: the largest survived push
-per direction (polar, one curve per gait phase, start frame: 0° forward, 90° left) and a pass/fail
-table per model mismatch."""
+per direction (polar, one curve per gait phase, start frame: 0° forward, 90° left) beside the
+largest the linear inverted pendulum could capture from the state each push met (dashed), the grid
+as a table, and a pass/fail table per model mismatch."""
 
 from __future__ import annotations
 
@@ -23,25 +24,31 @@ def render_robustness(result: dict, path: Path) -> Path:
     directions = sorted({c["direction_deg"] for c in cells})
     fig = plt.figure(figsize=(6.5, 6.5))
     ax = fig.add_subplot(projection="polar")
+    angles = np.radians(directions + directions[:1])
     for phase in phases:
         values = {c["direction_deg"]: c["impulse_ns_per_kg"] for c in cells if c["phase"] == phase}
-        angles = np.radians(directions + directions[:1])
-        ax.plot(angles, [values[d] for d in directions + directions[:1]], marker="o", label=phase.replace("_", " "))
+        line, = ax.plot(angles, [values[d] for d in directions + directions[:1]], marker="o",
+                        label=phase.replace("_", " "))
+        bound = {c["direction_deg"]: c.get("lip_capturable_ns_per_kg") for c in cells if c["phase"] == phase}
+        if None not in bound.values():
+            ax.plot(angles, [min(bound[d], max(result["magnitudes_ns_per_kg"])) for d in directions + directions[:1]],
+                    linestyle="--", linewidth=1, color=line.get_color())
     ax.set_rmax(max(result["magnitudes_ns_per_kg"]))
     ax.set_rticks(result["magnitudes_ns_per_kg"])
-    ax.set_title("largest survived push [N·s/kg] by direction (0° forward, 90° left)", fontsize=10)
+    ax.set_title("largest survived push [N·s/kg] by direction (0° forward, 90° left);\n"
+                 "dashed: largest the LIP could capture (clipped at the largest tested)", fontsize=10)
     ax.legend(fontsize=8, loc="lower left", bbox_to_anchor=(-0.1, -0.12))
     figure = figure_png(fig)
     rows = "".join(_mismatch_row(m) for m in result["mismatch"])
-    grid = "".join(f"<tr><th>{d}°</th>" + "".join(
-        f"<td>{next(c['impulse_ns_per_kg'] for c in cells if c['direction_deg'] == d and c['phase'] == p):g}</td>"
-        for p in phases) + "</tr>" for d in directions)
+    cell = {(c["direction_deg"], c["phase"]): c for c in cells}
+    grid = "".join(f"<tr><th>{d}°</th>" + "".join(_grid_cell(cell[d, p]) for p in phases) + "</tr>" for d in directions)
     page = f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>robot_ctrl robustness</title>
 <style>body{{font-family:sans-serif;max-width:900px;margin:2em auto;}} table{{border-collapse:collapse;margin:1em 0;}}
 th,td{{border:1px solid #ccc;padding:3px 8px;text-align:left;font-size:90%;}} img{{max-width:100%;}}</style>
 </head><body><h1>Robustness: {html.escape(result['walk'])}</h1>
-<p>Pushes of {result['push_duration_s']} s on the base, growing until the robot falls; 0: not even the smallest; {max(result['magnitudes_ns_per_kg']):g}: the largest tested, and it did not fall.</p>
+<p>Pushes of {result['push_duration_s']} s on the base, growing until the robot falls; 0: not even the smallest; {max(result['magnitudes_ns_per_kg']):g}: the largest tested, and it did not fall.
+In brackets, the largest push the linear inverted pendulum could capture by stepping within the controller's reach, from the state the push met (measured); a push above it cannot be caught without a hip strategy or a crossing step (docs/robustness.md).</p>
 <img alt="largest survived push" src="data:image/png;base64,{figure}">
 <table><tr><th>direction</th>{''.join(f'<th>{html.escape(p)}</th>' for p in phases)}</tr>{grid}</table>
 <h2>Model mismatch</h2><table><tr><th>run</th><th>result</th><th>final error</th><th>error</th></tr>{rows}</table>
@@ -50,6 +57,11 @@ th,td{{border:1px solid #ccc;padding:3px 8px;text-align:left;font-size:90%;}} im
     path = Path(path)
     path.write_text(page)
     return path
+
+
+def _grid_cell(c: dict) -> str:
+    bound = c.get("lip_capturable_ns_per_kg")
+    return f"<td>{c['impulse_ns_per_kg']:g}" + ("" if bound is None else f" ({bound:.2f})") + "</td>"
 
 
 def _mismatch_row(m: dict) -> str:

@@ -2,7 +2,8 @@
 growing until the robot falls, and under model mismatch (mass, friction, latency). Each trial is
 ``robot-ctrl walk`` with disturbance options (``eval/trials.py``); the campaign writes
 ``robustness.json`` and ``robustness.html`` (polar plot of the largest survived push per direction
-and phase, a pass/fail table per mismatch)."""
+and phase, beside the largest the LIP could capture from the state each push met, ``eval.push_capture``;
+a pass/fail table per mismatch)."""
 
 from __future__ import annotations
 
@@ -36,6 +37,7 @@ def run_robustness(out_dir: Path, jobs: int = 1, directions=DIRECTIONS, phases: 
     only for the cells that walked the round before."""
     out_dir = Path(out_dir)
     largest = {(d, p): 0.0 for d in directions for p in phases}
+    capturable: dict[tuple, float | None] = {cell: None for cell in largest}  # the LIP's bound (eval.push_capture)
     standing = list(largest)  # cells that have not fallen yet
     for m in magnitudes:
         if not standing:
@@ -44,6 +46,8 @@ def run_robustness(out_dir: Path, jobs: int = 1, directions=DIRECTIONS, phases: 
         log(f"pushes of {m} N·s/kg: {len(trials)} walks")
         reports = run_trials(trials, out_dir, jobs, progress=progress)
         for cell, trial in zip(list(standing), trials):
+            if capturable[cell] is None and reports[trial.name].get("push_capture"):
+                capturable[cell] = reports[trial.name]["push_capture"][0]["lip_capturable_ns_per_kg"]
             if _walked(reports[trial.name]):
                 largest[cell] = m
             else:
@@ -53,7 +57,8 @@ def run_robustness(out_dir: Path, jobs: int = 1, directions=DIRECTIONS, phases: 
     reports = run_trials(mismatch_trials, out_dir, jobs, progress=progress)
     result = {
         "walk": " ".join(WALK), "push_duration_s": 0.1, "phases_s": phases, "magnitudes_ns_per_kg": list(magnitudes),
-        "largest_survived_push": [{"direction_deg": d, "phase": p, "impulse_ns_per_kg": v} for (d, p), v in largest.items()],
+        "largest_survived_push": [{"direction_deg": d, "phase": p, "impulse_ns_per_kg": v,
+                                   "lip_capturable_ns_per_kg": capturable[d, p]} for (d, p), v in largest.items()],
         "mismatch": [{"name": name, "walked": _walked(r), "fall_time_s": r.get("fall_time_s"),
                       "final_position_error_m": r.get("final_position_error_m"), "error": r.get("error")}
                      for name, r in zip(mismatch, reports.values())],

@@ -18,6 +18,7 @@ from robot_ctrl.control.path_commander import PathCommander
 from robot_ctrl.control.path_follower import WalkGoal
 from robot_ctrl.control.walking_controller import WalkingController
 from robot_ctrl.eval import FallCriterion, RunMetrics
+from robot_ctrl.eval.push_capture import PushCapture
 from robot_ctrl.eval.recorders import Fell, HeldFor, MetricsRecorder, ProgressBar, TimeLimit
 from robot_ctrl.eval.report_file import write_report
 from robot_ctrl.eval.walk_log import GRF_LIMIT_RATIO, WalkLog
@@ -60,10 +61,11 @@ def run_walk(robot: RobotModel, hw: SafetyLayer, goal: WalkGoal, settings: WalkS
     foot = robot.config.foot
     walk = WalkRecorder(controller, WalkLog(robot.mass * GRAVITY, start, (foot.length, foot.width),
                                             s.grf_limit_ratio), start, log)
+    capture = PushCapture(controller, disturbances.pushes, float(start[2]))
     stood = HeldFor(lambda: controller.standing and path.done, STAND_AFTER, "stood at the goal")
     bar = ProgressBar(path.duration + STAND_AFTER + 1.0, progress)
     loop = ControlLoop([view.hardware(hw)], [view.stepped], dt,
-                       recorders=[MetricsRecorder([metrics]), walk, bar, *view.recorders, *recorders],
+                       recorders=[MetricsRecorder([metrics]), walk, capture, bar, *view.recorders, *recorders],
                        stops=[Fell([metrics]), stood, TimeLimit(path.time_limit, "did not finish the path")], pacer=pacer)
     try:
         result = loop.run([state])
@@ -76,7 +78,7 @@ def run_walk(robot: RobotModel, hw: SafetyLayer, goal: WalkGoal, settings: WalkS
         dynfilter=s.dynfilter.value, dynfilter_passes=s.dynfilter_passes if filtered else 0,
         dynfilter_fallbacks=controller.filter_fallbacks,
         dynfilter_worker=s.dynfilter_worker and filtered, **view.report(), safety=hw.report(),
-        disturbances=disturbances.to_dict(), rtf=round(result.rtf, 3), control_rate_hz=round(1.0 / dt, 3))
+        disturbances=disturbances.to_dict(), push_capture=capture.report(), rtf=round(result.rtf, 3), control_rate_hz=round(1.0 / dt, 3))
     if pacer is not None:
         report["timing"] = pacer.report()
     log(f"fell: {str(report['fell']).lower()}  final base (x, y, yaw) {report['final_base_xy_yaw']} vs commanded "
