@@ -120,3 +120,7 @@ def test_a_robot_that_falls_is_reported_as_fallen(tmp_path):
     report = json.loads((tmp_path / "report.json").read_text())
     assert report["fell"] is True and 1.0 < report["fall_time_s"] < 4.0
     assert "touching the floor" in report["fall_reason"] or "base height" in report["fall_reason"]
+    # It met a single support on the right foot, whose outer edge alone could have caught it: far
+    # below the push.
+    (capture,) = report["push_capture"]
+    assert capture["support"] == "right" and 0.2 < capture["lip_capturable_ns_per_kg"] < 0.6

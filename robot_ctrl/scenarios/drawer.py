@@ -18,6 +18,7 @@ from robot_ctrl.control.walk_reach_commander import WalkReachCommander
 from robot_ctrl.control.walking_controller import WalkingController
 from robot_ctrl.eval import FallCriterion, RunMetrics
 from robot_ctrl.eval.drawer_recorder import DrawerRecorder
+from robot_ctrl.eval.push_capture import PushCapture
 from robot_ctrl.eval.recorders import Fell, HeldFor, MetricsRecorder, ProgressBar, TimeLimit
 from robot_ctrl.eval.report_file import write_report
 from robot_ctrl.eval.walk_log import WalkLog
@@ -84,12 +85,13 @@ def run_drawer(robot: RobotModel, hw: SafetyLayer, primitives: WalkReachPrimitiv
     walk = WalkRecorder(controller, WalkLog(robot.mass * GRAVITY, start, (foot.length, foot.width)), start,
                         lambda line: None)
     drawer = DrawerRecorder(commander, robot)
+    capture = PushCapture(controller, disturbances.pushes, float(start[2]))
     done = HeldFor(lambda: commander.finished and controller.standing,
                    STAND_AFTER, "the task ended")
     limit = 8.0 * max([task.distance] + [j.distance for j in task.jumps]) + 15.0
     bar = ProgressBar(limit / 2, progress)
     loop = ControlLoop([view.hardware(hw)], [view.stepped], dt, commanders=[commander],
-                       recorders=[MetricsRecorder([metrics]), walk, drawer, bar, *view.recorders, *recorders],
+                       recorders=[MetricsRecorder([metrics]), walk, drawer, capture, bar, *view.recorders, *recorders],
                        stops=[Fell([metrics]), done, TimeLimit(limit, "the task did not end")], pacer=pacer)
     try:
         result = loop.run([state])
@@ -103,7 +105,7 @@ def run_drawer(robot: RobotModel, hw: SafetyLayer, primitives: WalkReachPrimitiv
         metrics.fell, geometry, task.slot, primitives.comfort_distance) | dict(
         zmp_in_support_ratio=walk.zmp_in_support_ratio, footsteps=walk.footsteps, **walk_figures,
         dynfilter_fallbacks=controller.filter_fallbacks, **view.report(), safety=hw.report(), disturbances=disturbances.to_dict(),
-        rtf=round(result.rtf, 3), control_rate_hz=round(1.0 / dt, 3))
+        push_capture=capture.report(), rtf=round(result.rtf, 3), control_rate_hz=round(1.0 / dt, 3))
     report["success"] = report["success"] and done.held(result.states[0].t) >= STAND_AFTER
     if pacer is not None:
         report["timing"] = pacer.report()
