@@ -122,7 +122,7 @@ def _base_state(args: argparse.Namespace) -> BaseState:
 @contextmanager
 def _on_the_robot(args: argparse.Namespace, robot, hw, control_dt: float):
     """The run's recorders (the tick log) and, on real servos, its pacer (absolute deadlines; the
-    scenario then starts with the start sequence, ``scenarios/run_start.py``)."""
+    scenario then starts with the start sequence, ``scenarios/robot_run.py``)."""
     pacer = _real_servo_pacer(HardwareKind.parse(args.hw), control_dt)
     with _tick_log(args, robot, hw, control_dt, pacer) as recorders:
         yield recorders, pacer
@@ -215,7 +215,8 @@ def _walk(args: argparse.Namespace) -> int:
 def _drawer(args: argparse.Namespace) -> int:
     from robot_ctrl.hw.drawer_cabinet import DrawerPlacement
     from robot_ctrl.robot.model import load_robot
-    from robot_ctrl.scenarios.drawer import DrawerTask, run_drawer
+    from robot_ctrl.scenarios.drawer import run_drawer
+    from robot_ctrl.scenarios.drawer_task import DrawerTask
     from robot_ctrl.scenarios.walk_reach_synthesis import load_demonstrations, load_primitives
 
     jumps = tuple(_goal_jump(j) for j in args.goal_jump)

@@ -11,16 +11,14 @@ import numpy as np
 import pinocchio as pin
 
 from robot_ctrl.control.balance_controller import BalanceController, BalanceParams
-from robot_ctrl.control.loop import ControlLoop
 from robot_ctrl.control.pacer import Pacer
-from robot_ctrl.eval import FallCriterion, RunMetrics
-from robot_ctrl.eval.recorders import Fell, MetricsRecorder, ProgressBar, TimeLimit
+from robot_ctrl.eval.recorders import ProgressBar, TimeLimit
 from robot_ctrl.eval.report_file import write_report
 from robot_ctrl.hw.disturbances import Disturbances
 from robot_ctrl.hw.safety import SafetyLayer
 from robot_ctrl.modes import BaseState
 from robot_ctrl.robot.model import RobotModel, configuration
-from robot_ctrl.scenarios.run_start import start_run
+from robot_ctrl.scenarios.robot_run import start_run
 
 
 class HandError:
@@ -58,26 +56,16 @@ def run_balance(robot: RobotModel, hw: SafetyLayer, params: BalanceParams = Bala
     (and write to ``out_dir``) the report; ``recorders`` (a tick log) see every tick; the
     controller sees the base as ``base_state`` says; ``pacer`` keeps a real robot's ticks on time."""
     dt = params.control_dt
-    controller, view, state = start_run(robot, hw, base_state, lambda seen: BalanceController(robot, seen, params),
-                                        pacer, recorders, log)
-    metrics = RunMetrics(robot.joint_names, robot.effort, FallCriterion(float(state.base_pos[2])))
+    controller, run = start_run(robot, hw, base_state, lambda seen: BalanceController(robot, seen, params),
+                                pacer, recorders, log)
     hand = HandError(controller, log)
-    bar = ProgressBar(controller.duration, progress)
-    loop = ControlLoop([view.hardware(hw)], [view.stepped], dt,
-                       recorders=[MetricsRecorder([metrics]), hand, bar, *view.recorders, *recorders],
-                       stops=[Fell([metrics]), TimeLimit(controller.duration - dt / 2, "motion done:")], pacer=pacer)
-    try:
-        result = loop.run([state])
-    finally:
-        bar.close()
-    if metrics.fell:
+    result = run.loop(dt, ProgressBar(controller.duration, progress), recorders=[hand],
+                      stops=[TimeLimit(controller.duration - dt / 2, "motion done:")])
+    if run.metrics.fell:
         log(result.stop_reason)
-    report = metrics.report() | dict(robot=robot.name, hand_error_m=hand.error,
-                                     hand_target_floor_m=list(params.hand_target), **view.report(),
-                                     safety=hw.report(), disturbances=disturbances.to_dict(),
-                                     rtf=round(result.rtf, 3), control_rate_hz=round(1.0 / dt, 3))
-    if pacer is not None:
-        report["timing"] = pacer.report()
+    report = run.metrics.report() | dict(robot=robot.name, hand_error_m=hand.error,
+                                         hand_target_floor_m=list(params.hand_target)) | run.report(
+        result, disturbances, dt)
     log(f"safety layer: {report['safety']}")
     log(f"fell: {str(report['fell']).lower()}  hand_error_m: {hand.error}  peak_torque_ratio: "
         f"{report['peak_torque_ratio']:.3f} ({report['peak_torque_joint']})  peak_grf_n: {report['peak_grf_n']}  "

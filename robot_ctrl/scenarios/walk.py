@@ -12,14 +12,12 @@ from pathlib import Path
 from typing import Callable, Sequence
 
 from robot_ctrl.control.arm_swing import arm_motion
-from robot_ctrl.control.loop import ControlLoop
 from robot_ctrl.control.pacer import Pacer
 from robot_ctrl.control.path_commander import PathCommander
 from robot_ctrl.control.path_follower import WalkGoal
 from robot_ctrl.control.walking_controller import WalkingController
-from robot_ctrl.eval import FallCriterion, RunMetrics
 from robot_ctrl.eval.push_capture import PushCapture
-from robot_ctrl.eval.recorders import Fell, HeldFor, MetricsRecorder, ProgressBar, TimeLimit
+from robot_ctrl.eval.recorders import HeldFor, ProgressBar, TimeLimit
 from robot_ctrl.eval.report_file import write_report
 from robot_ctrl.eval.walk_log import GRF_LIMIT_RATIO, WalkLog
 from robot_ctrl.eval.walk_recorder import WalkRecorder
@@ -28,7 +26,7 @@ from robot_ctrl.hw.disturbances import Disturbances
 from robot_ctrl.hw.safety import SafetyLayer
 from robot_ctrl.modes import ArmMotion, BaseState, FilterMode
 from robot_ctrl.robot.model import RobotModel
-from robot_ctrl.scenarios.run_start import start_run
+from robot_ctrl.scenarios.robot_run import start_run
 
 STAND_AFTER = 2.0  # [s] standing after the stop
 
@@ -52,35 +50,26 @@ def run_walk(robot: RobotModel, hw: SafetyLayer, goal: WalkGoal, settings: WalkS
     ``disturbances``: the report lists them) and report; ``recorders`` (a tick log) see every tick;
     ``pacer`` keeps a real robot's ticks on time."""
     s, dt = settings, settings.control_dt
-    controller, view, state = start_run(robot, hw, s.base_state, lambda seen: WalkingController(
+    controller, run = start_run(robot, hw, s.base_state, lambda seen: WalkingController(
         robot, seen, None, dt, s.stabilize, arm_motion(s.arms, robot), s.dynfilter, s.dynfilter_passes,
         s.dynfilter_worker), pacer, recorders, log)
-    start = base_pose_xy_yaw(state.base_pos, state.base_quat_xyzw)
+    start = base_pose_xy_yaw(run.state.base_pos, run.state.base_quat_xyzw)
     path = PathCommander(controller, goal, start, log)
-    metrics = RunMetrics(robot.joint_names, robot.effort, FallCriterion(float(state.base_pos[2])))
     foot = robot.config.foot
     walk = WalkRecorder(controller, WalkLog(robot.mass * GRAVITY, start, (foot.length, foot.width),
                                             s.grf_limit_ratio), start, log)
     capture = PushCapture(controller, disturbances.pushes, float(start[2]))
     stood = HeldFor(lambda: controller.standing and path.done, STAND_AFTER, "stood at the goal")
     bar = ProgressBar(path.duration + STAND_AFTER + 1.0, progress)
-    loop = ControlLoop([view.hardware(hw)], [view.stepped], dt,
-                       recorders=[MetricsRecorder([metrics]), walk, capture, bar, *view.recorders, *recorders],
-                       stops=[Fell([metrics]), stood, TimeLimit(path.time_limit, "did not finish the path")], pacer=pacer)
-    try:
-        result = loop.run([state])
-    finally:
-        bar.close()
+    result = run.loop(dt, bar, recorders=[walk, capture],
+                      stops=[stood, TimeLimit(path.time_limit, "did not finish the path")])
     log(result.stop_reason)
     filtered = s.dynfilter is not FilterMode.OFF
-    report = metrics.report() | {"robot": robot.name} | walk.report(result.states[0], goal) | dict(
+    report = run.metrics.report() | {"robot": robot.name} | walk.report(result.states[0], goal) | dict(
         stood_s=round(stood.held(result.states[0].t), 3), stabilizer=s.stabilize, arms=s.arms.value,
         dynfilter=s.dynfilter.value, dynfilter_passes=s.dynfilter_passes if filtered else 0,
-        dynfilter_fallbacks=controller.filter_fallbacks,
-        dynfilter_worker=s.dynfilter_worker and filtered, **view.report(), safety=hw.report(),
-        disturbances=disturbances.to_dict(), push_capture=capture.report(), rtf=round(result.rtf, 3), control_rate_hz=round(1.0 / dt, 3))
-    if pacer is not None:
-        report["timing"] = pacer.report()
+        dynfilter_fallbacks=controller.filter_fallbacks, dynfilter_worker=s.dynfilter_worker and filtered,
+        push_capture=capture.report()) | run.report(result, disturbances, dt)
     log(f"fell: {str(report['fell']).lower()}  final base (x, y, yaw) {report['final_base_xy_yaw']} vs commanded "
         f"{report['commanded_base_xy_yaw']}  zmp_in_support_ratio {report['zmp_in_support_ratio']}  "
         f"peak_torque_ratio {report['peak_torque_ratio']:.3f}  steps {len(walk.footsteps)}  rtf {report['rtf']}")

@@ -1,0 +1,41 @@
+"""DrawerTask: what a user asks of the drawer scenario (where the cabinet stands, which slot holds
+the object, the cabinet's jumps, the dynamic filter, the control period, how the base is seen), and
+its check against what the learned primitives can do."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from robot_ctrl.geometry.drawer import SLOTS
+from robot_ctrl.modes import BaseState, FilterMode
+from robot_ctrl.synthesis.synthesizer import GoalJump
+
+MAX_DISTANCE = 6.0  # [m] farthest cabinet: a room's length
+WALK_IN = 0.30  # [m] most the pelvis advances before the synthesis starts (the WPG's start and two steps: 0.26-0.28 m measured)
+
+
+@dataclass(frozen=True)
+class DrawerTask:
+    distance: float  # [m] closed front panel from the start pelvis, along the start heading
+    slot: str = "front_left"
+    jumps: tuple[GoalJump, ...] = ()
+    dynfilter: FilterMode = FilterMode.FULL
+    control_dt: float = 0.005  # [s]
+    base_state: BaseState = BaseState.SIMULATED  # where the controller's base pose and velocity come from
+
+    def check(self, comfort: float, shortest: float) -> None:
+        """Raise ValueError naming the setting and its allowed range."""
+        nearest = round(comfort + shortest + WALK_IN, 2)
+        if self.slot not in SLOTS:
+            raise ValueError(f"slot = {self.slot!r} is not one of {', '.join(SLOTS)}")
+        for name, d in [("distance", self.distance)] + [("goal jump distance", j.distance) for j in self.jumps]:
+            if not nearest <= d <= MAX_DISTANCE:
+                raise ValueError(f"{name} = {d} m is outside the allowed range [{nearest}, {MAX_DISTANCE}] m")
+        before = self.distance
+        for j in sorted(self.jumps, key=lambda j: j.time):
+            if not 0 < j.time <= 30:
+                raise ValueError(f"goal jump time = {j.time} s is outside the allowed range (0, 30] s")
+            if not j.distance > before:
+                raise ValueError(f"goal jump distance = {j.distance} m must be farther than the {before} m before it "
+                                 "(the cabinet moves away, thesis Fig. 3.39; nearer would put it into the robot)")
+            before = j.distance
