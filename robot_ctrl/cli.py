@@ -24,6 +24,10 @@ _DISTURBANCE_OPTIONS = {"mass_scale": "--mass-scale", "friction_scale": "--frict
                         "latency": "--latency-ms: latency", "push time": "--push: push time",
                         "push angle": "--push: push angle", "push impulse": "--push: push impulse",
                         "reply_loss": "--reply-loss"}
+#: Step timing a user may give [s]: below 0.3 s of single support the swing is too fast for the
+#: servos (peak torque 0.9 of the limit at 0.3 s on the 3 m walk); up to a slow 1.5 s step.
+SINGLE_SUPPORT_RANGE = (0.3, 1.5)
+DOUBLE_SUPPORT_RANGE = (0.1, 1.0)
 
 
 def _named(message: str, options: dict[str, str]) -> str:
@@ -202,14 +206,28 @@ def _walk(args: argparse.Namespace) -> int:
         raise ConfigError(f"walk: {exc}".replace("turn = ", "--turn-deg (in rad) = ")) from exc
     if not 1 <= args.dynfilter_passes <= 10:
         raise ConfigError(f"walk: --dynfilter-passes {args.dynfilter_passes} is outside the allowed range [1, 10]")
+    single, double = _step_timing(args, "walk")
     settings = WalkSettings(stabilize=not args.no_stabilizer, arms=ArmMotion(args.arms),
                             dynfilter=FilterMode(args.dynfilter), dynfilter_passes=args.dynfilter_passes,
-                            dynfilter_worker=not args.dynfilter_inline, base_state=_base_state(args))
+                            dynfilter_worker=not args.dynfilter_inline, base_state=_base_state(args),
+                            single_support=single, double_support=double)
     robot, disturbances, hardware = _simulation(args)
     with hardware as hw, _on_the_robot(args, robot, hw, settings.control_dt) as (recorders, pacer):
         report = run_walk(robot, hw, goal, settings, out_dir=args.out, log=_log, progress=not args.quiet,
                           disturbances=disturbances, recorders=recorders, pacer=pacer)
     return _finish(args, report)
+
+
+def _step_timing(args: argparse.Namespace, command: str) -> tuple[float, float]:
+    """``--single-support`` and ``--double-support`` [s]: whole pattern-generator samples (0.1 s)."""
+    from robot_ctrl.wpg.params import WalkParams
+
+    sample = WalkParams.sample_time
+    for option, value, (lo, hi) in (("--single-support", args.single_support, SINGLE_SUPPORT_RANGE),
+                                    ("--double-support", args.double_support, DOUBLE_SUPPORT_RANGE)):
+        if not lo <= value <= hi or abs(value / sample - round(value / sample)) > 1e-9:
+            raise ConfigError(f"{command}: {option} {value} must be a multiple of {sample:g} s in [{lo:g}, {hi:g}] s")
+    return args.single_support, args.double_support
 
 
 def _drawer(args: argparse.Namespace) -> int:
@@ -256,11 +274,13 @@ def _robustness(args: argparse.Namespace) -> int:
 
     if not 1 <= args.jobs <= 64:
         raise ConfigError(f"robustness: --jobs {args.jobs} is outside the allowed range [1, 64]")
-    grid = {}
+    single, double = _step_timing(args, "robustness")
+    grid = {"phases": robustness.push_phases(single, double)}
     if args.quick:  # a smoke test of the campaign: two directions, one phase, two magnitudes
-        grid = dict(directions=(0, -90), phases={"single_mid": robustness.PHASES["single_mid"]},
-                    magnitudes=(0.1, 0.2), mismatch={k: robustness.MISMATCH[k] for k in ("mass ×1.15", "latency 10 ms")})
-    robustness.run_robustness(args.out, args.jobs, log=_log, progress=not args.quiet, **grid)
+        grid = dict(directions=(0, -90), phases={"single_mid": grid["phases"]["single_mid"]}, magnitudes=(0.1, 0.2),
+                    mismatch={k: robustness.MISMATCH[k] for k in ("mass ×1.15", "latency 10 ms")})
+    robustness.run_robustness(args.out, args.jobs, log=_log, progress=not args.quiet,
+                              walk=robustness.walk_command(single, double), **grid)
     return 0
 
 
@@ -643,10 +663,22 @@ def _add_walk(sub, sim) -> None:
     p.add_argument("--dynfilter-inline", action="store_true",
                    help="run the filter in the control loop, its correction applied in the sample it was "
                         "computed for (default: in a worker process on another core, one 0.1 s sample behind)")
+    _step_timing_args(p)
     _base_state_arg(p)
     p.add_argument("--out", type=Path, help="write DIR/report.json and DIR/timeseries.npz")
     _log_arg(p)
     p.set_defaults(run=_walk)
+
+
+def _step_timing_args(p) -> None:
+    from robot_ctrl.wpg.params import WalkParams
+
+    p.add_argument("--single-support", type=float, default=WalkParams.single_support,
+                   help="single-support time of each step [s], a multiple of 0.1 in "
+                        f"[{SINGLE_SUPPORT_RANGE[0]:g}, {SINGLE_SUPPORT_RANGE[1]:g}]: shorter steps catch pushes sooner")
+    p.add_argument("--double-support", type=float, default=WalkParams.double_support,
+                   help="double-support time between steps [s], a multiple of 0.1 in "
+                        f"[{DOUBLE_SUPPORT_RANGE[0]:g}, {DOUBLE_SUPPORT_RANGE[1]:g}]")
 
 
 def _add_drawer(sub, sim) -> None:
@@ -818,6 +850,7 @@ def _add_robustness(sub) -> None:
     p.add_argument("--out", type=Path, default=Path("runs/robustness"), help="output folder")
     p.add_argument("--jobs", type=int, default=2, help="walks run at a time, 1..64")
     p.add_argument("--quick", action="store_true", help="a small grid (2 directions, 1 phase, 2 magnitudes)")
+    _step_timing_args(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(run=_robustness)
 

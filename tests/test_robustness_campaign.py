@@ -3,6 +3,7 @@
 import json
 
 from robot_ctrl.cli import main
+from robot_ctrl.eval.robustness_report import render_robustness
 from robot_ctrl.scenarios.robustness import PHASES, run_robustness
 
 
@@ -12,9 +13,11 @@ def test_a_small_campaign(tmp_path):
                             log=lambda _: None, progress=False)
     # 0.2 N·s/kg to the right mid-step is survived, 2 N·s/kg is not: the largest survived is 0.2.
     (cell,) = result["largest_survived_push"]
-    bound = cell["lip_capturable_ns_per_kg"]
+    bound, ended = cell["lip_capturable_ns_per_kg"], cell["final_position_error_m"]
     assert cell == {"direction_deg": -90, "phase": "single_mid", "impulse_ns_per_kg": 0.2,
-                    "lip_capturable_ns_per_kg": bound}
+                    "final_position_error_m": ended, "lip_capturable_ns_per_kg": bound}
+    survived = json.loads((tmp_path / "push_single_mid_-90_0.2" / "report.json").read_text())
+    assert ended == survived["final_position_error_m"] < 0.05
     pushed = json.loads((tmp_path / "push_single_mid_-90_2.0" / "report.json").read_text())
     assert pushed["fell"] is True and pushed["disturbances"]["pushes"][0]["impulse_ns_per_kg"] == 2.0
     # Mid-step on the right foot, pushed right: only the right sole's outer edge can catch it (the feet
@@ -27,8 +30,14 @@ def test_a_small_campaign(tmp_path):
     assert f"<td>0.2 ({bound:.2f})</td>" in page
     assert "data:image/png;base64," in page and "latency 10 ms" in page and "http" not in page.replace("http-equiv", "")
     assert json.loads((tmp_path / "robustness.json").read_text()) == json.loads(json.dumps(result))
+    assert "from the goal</td>" not in page
+    cell["final_position_error_m"] = 0.24  # a walk that survived but ended far from its goal is marked
+    assert "<td>0.2 (" + f"{bound:.2f}), ended 240 mm from the goal</td>" in render_robustness(
+        result, tmp_path / "marked.html").read_text()
 
 
 def test_campaign_options_are_checked(capsys):
     assert main(["robustness", "--jobs", "0"]) == 2
     assert "--jobs 0 is outside the allowed range [1, 64]" in capsys.readouterr().err
+    assert main(["robustness", "--double-support", "0"]) == 2
+    assert "--double-support 0.0 must be a multiple of 0.1 s in [0.1, 1] s" in capsys.readouterr().err

@@ -8,6 +8,7 @@ import pytest
 
 from robot_ctrl.cli import main
 from robot_ctrl.control.path_follower import PathFollower, WalkGoal
+from robot_ctrl.scenarios.robustness import push_phases
 
 
 def test_one_metre_walk_does_not_fall(tmp_path):
@@ -72,6 +73,7 @@ def test_arc_geometry():
     (["--distance", "1", "--lateral", "0.5"], "either lateral, or distance"),
     (["--distance", "1", "--speed", "2"], r"speed = 2.0 is outside the allowed range \[0.02, 0.5\]"),
     (["--turn-deg", "90"], "turn needs a distance"),
+    (["--distance", "1", "--single-support", "0.55"], r"--single-support 0.55 must be a multiple of 0.1 s in \[0.3, 1.5\]"),
 ])
 def test_walk_rejects_bad_arguments(args, message, capsys):
     assert main(["walk", *args]) == 2
@@ -166,6 +168,33 @@ def test_arcs_and_side_steps_end_at_their_goal(args, pose, tmp_path):
     assert report["commanded_base_xy_yaw"] == pytest.approx([pose[0], pose[1], np.radians(pose[2])], abs=1e-3)
     assert np.hypot(x - pose[0], y - pose[1]) < 0.05 and abs(np.degrees(yaw) - pose[2]) < 3.0
     assert report["fell"] is False and report["ended_in_double_support"] and report["zmp_in_support_ratio"] >= 0.98
+
+
+def test_step_timing_sets_the_steps_the_campaign_pushes_in(tmp_path):
+    """``--single-support 0.5``: a touch-down every 0.6 s, at the times the robustness campaign's
+    push phases assume for that timing (the push "double" lands on the third touch-down)."""
+    args = ["walk", "--distance", "1", "--single-support", "0.5", "--double-support", "0.1", "--quiet"]
+    assert main([*args, "--out", str(tmp_path)]) == 0
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert report["single_support_s"] == 0.5 and report["double_support_s"] == 0.1
+    assert report["fell"] is False and report["final_position_error_m"] < 0.05
+    times = [step["t"] for step in report["footsteps"]]
+    np.testing.assert_allclose(np.diff(times[:4]), 0.6, atol=1e-6)
+    phases = push_phases(0.5, 0.1)
+    assert times[1] == pytest.approx(phases["single_start"] - 0.1) and times[2] == pytest.approx(phases["double"])
+    assert phases["single_start"] < phases["single_mid"] < phases["single_end"] < phases["double"]
+
+
+def test_after_a_push_that_moves_a_landing_the_plan_follows_the_feet_to_the_goal(tmp_path):
+    """Pushed backwards-right at the start of a single support, Talos lands a foot 6.7 cm from its
+    plan; the plan closes the gap 5 cm per sample and the walk ends at its goal (while larger gaps
+    were left alone, it ended 0.24 m away, the plan at the goal)."""
+    args = ["walk", "--distance", "3", "--single-support", "0.5", "--push", "2.1:-135:0.4", "--quiet"]
+    assert main([*args, "--out", str(tmp_path)]) == 0
+    report = json.loads((tmp_path / "report.json").read_text())
+    gaps = [np.linalg.norm(np.subtract(s["planned"][:2], s["realized"][:2])) for s in report["footsteps"]]
+    assert max(gaps) > 0.05
+    assert report["fell"] is False and report["final_position_error_m"] < 0.03
 
 
 def test_a_robot_pushed_over_is_reported_fallen_with_exit_status_1(tmp_path):

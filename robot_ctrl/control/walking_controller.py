@@ -39,7 +39,7 @@ from robot_ctrl.wpg.generator import WalkingPatternGenerator, WalkReference
 from robot_ctrl.wpg.params import WalkParams
 
 MAX_BALANCE_SHIFT = 0.04  # [m] of :meth:`WalkingController.shift_balance`, well inside a sole
-MAX_FOOT_FOLLOW = 0.05  # [m] a larger gap between the planned and measured stance foot is not followed
+MAX_FOOT_FOLLOW = 0.05  # [m] per sample: a larger gap (a push, a slipping foot) is closed over several samples
 MIN_STANCE_TICKS = 5  # measurements of a stance foot needed to follow it
 
 
@@ -238,18 +238,23 @@ class WalkingController:
         small error of every landing adds up over a long walk, the measured CoM runs ahead of a plan
         whose feet are elsewhere and the stabilizer's bounded correction ends by not being enough (a
         10 m walk fell). The mean over the sample keeps attitude noise (a leg's 1 m lever) out of the
-        plan. The joints' references do not change; the plan's future steps start from the real feet."""
+        plan. The joints' references do not change; the plan's future steps start from the real feet.
+        A gap larger than ``MAX_FOOT_FOLLOW`` is closed by that much per sample: one jump could come
+        from a foot still settling, and a push or a slip that moved the robot by decimetres must not
+        leave the plan (and the path follower, which steers the plan) walking elsewhere."""
         stance, self._stance = self._stance, None
         if stance is None or stance[2] < MIN_STANCE_TICKS:
             return
         side, total, n = stance
         planned = self.wpg.feet[side]
         delta = total / n - (planned.x, planned.y)
-        if np.linalg.norm(delta) <= MAX_FOOT_FOLLOW:
-            self.wpg.shift(delta)
-            q = self.ik.q.copy()
-            q[:2] += delta
-            self.ik.set_configuration(q)
+        gap = float(np.linalg.norm(delta))
+        if gap > MAX_FOOT_FOLLOW:
+            delta *= MAX_FOOT_FOLLOW / gap
+        self.wpg.shift(delta)
+        q = self.ik.q.copy()
+        q[:2] += delta
+        self.ik.set_configuration(q)
 
     def _measure_stance(self, ref: WalkReference) -> None:
         """Add this tick's measured sole of the plan's single stance foot, if it alone touches."""

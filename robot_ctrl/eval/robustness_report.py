@@ -12,6 +12,8 @@ import numpy as np
 
 from robot_ctrl.eval.html_report import figure_png
 
+GOAL_TOLERANCE = 0.05  # [m] a survived push whose walk ended farther from its goal is marked in the table
+
 
 def render_robustness(result: dict, path: Path) -> Path:
     import matplotlib
@@ -48,6 +50,7 @@ def render_robustness(result: dict, path: Path) -> Path:
 th,td{{border:1px solid #ccc;padding:3px 8px;text-align:left;font-size:90%;}} img{{max-width:100%;}}</style>
 </head><body><h1>Robustness: {html.escape(result['walk'])}</h1>
 <p>Pushes of {result['push_duration_s']} s on the base, growing until the robot falls; 0: not even the smallest; {max(result['magnitudes_ns_per_kg']):g}: the largest tested, and it did not fall.
+A walk that survived its push but ended more than {GOAL_TOLERANCE * 100:g} cm from its goal says so.
 In brackets, the largest push the linear inverted pendulum could capture by stepping within the controller's reach, from the state the push met (measured); a push above it cannot be caught without a hip strategy or a crossing step (docs/robustness.md).</p>
 <img alt="largest survived push" src="data:image/png;base64,{figure}">
 <table><tr><th>direction</th>{''.join(f'<th>{html.escape(p)}</th>' for p in phases)}</tr>{grid}</table>
@@ -60,8 +63,9 @@ In brackets, the largest push the linear inverted pendulum could capture by step
 
 
 def _grid_cell(c: dict) -> str:
-    bound = c.get("lip_capturable_ns_per_kg")
-    return f"<td>{c['impulse_ns_per_kg']:g}" + ("" if bound is None else f" ({bound:.2f})") + "</td>"
+    bound, error = c.get("lip_capturable_ns_per_kg"), c.get("final_position_error_m")
+    off = "" if error is None or error <= GOAL_TOLERANCE else f", ended {error * 1000:.0f} mm from the goal"
+    return f"<td>{c['impulse_ns_per_kg']:g}" + ("" if bound is None else f" ({bound:.2f})") + off + "</td>"
 
 
 def _mismatch_row(m: dict) -> str:

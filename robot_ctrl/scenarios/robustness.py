@@ -13,12 +13,33 @@ from typing import Callable
 
 from robot_ctrl.eval.robustness_report import render_robustness
 from robot_ctrl.eval.trials import Trial, run_trials
+from robot_ctrl.wpg.params import WalkParams
 
 WALK = ("walk", "--distance", "3", "--speed", "0.25")
 DIRECTIONS = (0, 45, 90, 135, 180, -135, -90, -45)  # [deg] in the start frame, 0 forward, 90 left
-#: Push start times [s] in the third step of the walk (touch-downs at 1.6, 2.4, 3.2 s; 0.1 s of
-#: double support after each): start, middle and end of its single support, and double support.
-PHASES = {"single_start": 2.50, "single_mid": 2.80, "single_end": 3.10, "double": 3.20}
+
+
+def push_phases(single: float = WalkParams.single_support, double: float = WalkParams.double_support) -> dict:
+    """Push start times [s] in the third step of the walk: start, middle and end of its single
+    support, and its double support. The walk stands one sample, moves its ZMP onto the first stance
+    foot (``start_transfer``), then steps: touch-down k comes at
+    ``T + t_transfer + k t_single + (k − 1) t_double`` (T the 0.1 s sample; 1.6, 2.4, 3.2 s with the
+    default 0.7 s + 0.1 s steps)."""
+    p = WalkParams()
+    start = round(p.sample_time + p.start_transfer + 2 * single + 2 * double, 6)
+    mid = p.sample_time * int(single / 2 / p.sample_time + 1e-9)
+    return {"single_start": start, "single_mid": round(start + mid, 6),
+            "single_end": round(start + single - p.sample_time, 6), "double": round(start + single, 6)}
+
+
+def walk_command(single: float = WalkParams.single_support, double: float = WalkParams.double_support) -> tuple:
+    """The campaign's walk with this step timing (the default timing adds no option)."""
+    if (single, double) == (WalkParams.single_support, WalkParams.double_support):
+        return WALK
+    return (*WALK, "--single-support", f"{single:g}", "--double-support", f"{double:g}")
+
+
+PHASES = push_phases()
 MAGNITUDES = (0.1, 0.2, 0.3, 0.4, 0.5)  # [N·s/kg]
 MISMATCH = {"mass ×0.85": ("--mass-scale", "0.85"), "mass ×1.15": ("--mass-scale", "1.15"),
             "friction ×0.3": ("--friction-scale", "0.3"), "friction ×0.4": ("--friction-scale", "0.4"),
@@ -32,17 +53,19 @@ def _walked(report: dict) -> bool:
 
 def run_robustness(out_dir: Path, jobs: int = 1, directions=DIRECTIONS, phases: dict = PHASES,
                    magnitudes=MAGNITUDES, mismatch: dict = MISMATCH, log: Callable[[str], None] = print,
-                   progress: bool = True) -> dict:
+                   progress: bool = True, walk: tuple = WALK) -> dict:
     """Pushes grow per (direction, phase) until the first fall: one round of trials per magnitude,
-    only for the cells that walked the round before."""
+    only for the cells that walked the round before. ``walk``: the walk's command line
+    (:func:`walk_command`); ``phases`` must be its own (:func:`push_phases`)."""
     out_dir = Path(out_dir)
     largest = {(d, p): 0.0 for d in directions for p in phases}
     capturable: dict[tuple, float | None] = {cell: None for cell in largest}  # the LIP's bound (eval.push_capture)
+    ended: dict[tuple, float | None] = {cell: None for cell in largest}  # final error after the largest survived
     standing = list(largest)  # cells that have not fallen yet
     for m in magnitudes:
         if not standing:
             break
-        trials = [Trial(f"push_{p}_{d}_{m}", (*WALK, "--push", f"{phases[p]}:{d}:{m}")) for d, p in standing]
+        trials = [Trial(f"push_{p}_{d}_{m}", (*walk, "--push", f"{phases[p]}:{d}:{m}")) for d, p in standing]
         log(f"pushes of {m} N·s/kg: {len(trials)} walks")
         reports = run_trials(trials, out_dir, jobs, progress=progress)
         for cell, trial in zip(list(standing), trials):
@@ -50,15 +73,17 @@ def run_robustness(out_dir: Path, jobs: int = 1, directions=DIRECTIONS, phases: 
                 capturable[cell] = reports[trial.name]["push_capture"][0]["lip_capturable_ns_per_kg"]
             if _walked(reports[trial.name]):
                 largest[cell] = m
+                ended[cell] = reports[trial.name]["final_position_error_m"]
             else:
                 standing.remove(cell)
-    mismatch_trials = [Trial("mismatch_" + "".join(ch if ch.isalnum() else "_" for ch in name), (*WALK, *args))
+    mismatch_trials = [Trial("mismatch_" + "".join(ch if ch.isalnum() else "_" for ch in name), (*walk, *args))
                        for name, args in mismatch.items()]
     reports = run_trials(mismatch_trials, out_dir, jobs, progress=progress)
     result = {
-        "walk": " ".join(WALK), "push_duration_s": 0.1, "phases_s": phases, "magnitudes_ns_per_kg": list(magnitudes),
+        "walk": " ".join(walk), "push_duration_s": 0.1, "phases_s": phases, "magnitudes_ns_per_kg": list(magnitudes),
         "largest_survived_push": [{"direction_deg": d, "phase": p, "impulse_ns_per_kg": v,
-                                   "lip_capturable_ns_per_kg": capturable[d, p]} for (d, p), v in largest.items()],
+                                   "final_position_error_m": ended[d, p], "lip_capturable_ns_per_kg": capturable[d, p]}
+                                  for (d, p), v in largest.items()],
         "mismatch": [{"name": name, "walked": _walked(r), "fall_time_s": r.get("fall_time_s"),
                       "final_position_error_m": r.get("final_position_error_m"), "error": r.get("error")}
                      for name, r in zip(mismatch, reports.values())],

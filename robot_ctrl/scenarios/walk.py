@@ -27,6 +27,7 @@ from robot_ctrl.hw.safety import SafetyLayer
 from robot_ctrl.modes import ArmMotion, BaseState, FilterMode
 from robot_ctrl.robot.model import RobotModel
 from robot_ctrl.scenarios.robot_run import start_run
+from robot_ctrl.wpg.params import WalkParams
 
 STAND_AFTER = 2.0  # [s] standing after the stop
 
@@ -41,6 +42,8 @@ class WalkSettings:
     control_dt: float = 0.005  # [s]
     grf_limit_ratio: float = GRF_LIMIT_RATIO
     base_state: BaseState = BaseState.SIMULATED  # where the controller's base pose and velocity come from
+    single_support: float = WalkParams.single_support  # [s] step timing of the pattern generator
+    double_support: float = WalkParams.double_support  # [s]
 
 
 def run_walk(robot: RobotModel, hw: SafetyLayer, goal: WalkGoal, settings: WalkSettings = WalkSettings(),
@@ -50,8 +53,9 @@ def run_walk(robot: RobotModel, hw: SafetyLayer, goal: WalkGoal, settings: WalkS
     ``disturbances``: the report lists them) and report; ``recorders`` (a tick log) see every tick;
     ``pacer`` keeps a real robot's ticks on time."""
     s, dt = settings, settings.control_dt
+    params = WalkParams(single_support=s.single_support, double_support=s.double_support)
     controller, run = start_run(robot, hw, s.base_state, lambda seen: WalkingController(
-        robot, seen, None, dt, s.stabilize, arm_motion(s.arms, robot), s.dynfilter, s.dynfilter_passes,
+        robot, seen, params, dt, s.stabilize, arm_motion(s.arms, robot), s.dynfilter, s.dynfilter_passes,
         s.dynfilter_worker), pacer, recorders, log)
     start = base_pose_xy_yaw(run.state.base_pos, run.state.base_quat_xyzw)
     path = PathCommander(controller, goal, start, log)
@@ -66,7 +70,8 @@ def run_walk(robot: RobotModel, hw: SafetyLayer, goal: WalkGoal, settings: WalkS
     log(result.stop_reason)
     filtered = s.dynfilter is not FilterMode.OFF
     report = run.metrics.report() | {"robot": robot.name} | walk.report(result.states[0], goal) | dict(
-        stood_s=round(stood.held(result.states[0].t), 3), stabilizer=s.stabilize, arms=s.arms.value,
+        stood_s=round(stood.held(result.states[0].t), 3), single_support_s=s.single_support,
+        double_support_s=s.double_support, stabilizer=s.stabilize, arms=s.arms.value,
         dynfilter=s.dynfilter.value, dynfilter_passes=s.dynfilter_passes if filtered else 0,
         dynfilter_fallbacks=controller.filter_fallbacks, dynfilter_worker=s.dynfilter_worker and filtered,
         push_capture=capture.report()) | run.report(result, disturbances, dt)
