@@ -187,14 +187,16 @@ def test_step_timing_sets_the_steps_the_campaign_pushes_in(tmp_path):
 
 def test_after_a_push_that_moves_a_landing_the_plan_follows_the_feet_to_the_goal(tmp_path):
     """Pushed backwards-right at the start of a single support, Talos lands a foot 6.7 cm from its
-    plan; the plan closes the gap 5 cm per sample and the walk ends at its goal (while larger gaps
-    were left alone, it ended 0.24 m away, the plan at the goal)."""
+    plan and turned; the plan closes the gap 5 cm and 0.05 rad per sample and the walk ends at its
+    goal, facing it (while larger gaps were left alone, it ended 0.24 m away, the plan at the goal;
+    while the yaw was not followed, 8° off the goal's yaw)."""
     args = ["walk", "--distance", "3", "--single-support", "0.5", "--push", "2.1:-135:0.4", "--quiet"]
     assert main([*args, "--out", str(tmp_path)]) == 0
     report = json.loads((tmp_path / "report.json").read_text())
     gaps = [np.linalg.norm(np.subtract(s["planned"][:2], s["realized"][:2])) for s in report["footsteps"]]
     assert max(gaps) > 0.05
     assert report["fell"] is False and report["final_position_error_m"] < 0.03
+    assert report["final_yaw_error_deg"] < 2.0
 
 
 def test_a_robot_pushed_over_is_reported_fallen_with_exit_status_1(tmp_path):

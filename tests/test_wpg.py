@@ -137,9 +137,11 @@ def test_stop_at_puts_the_feet_on_the_goal():
         np.testing.assert_allclose(gen.feet[side].xy, goal[side].xy, atol=1e-9)
 
 
-def test_a_shifted_plan_is_the_same_plan_moved():
-    """``shift`` mid-swing moves the CoM, the feet and the swing under way, and the MPC then plans
-    the same motion from there (its problem is translation invariant)."""
+@pytest.mark.parametrize("turn", [0.0, 0.05])
+def test_a_shifted_plan_is_the_same_plan_moved(turn):
+    """``shift`` mid-swing turns and moves the CoM, the feet, the swing under way and the heading,
+    and the MPC then plans the same motion from there (its problem is invariant under rigid moves of
+    the plane)."""
     plans = [standing_generator(), standing_generator()]
     for gen in plans:
         gen.set_velocity(0.2, 0.0, 0.1)
@@ -147,18 +149,23 @@ def test_a_shifted_plan_is_the_same_plan_moved():
             gen.update()
     moved, kept = plans
     assert moved.phase == "single"
-    delta = np.array([0.004, -0.003])
-    moved.shift(delta)
+    delta, pivot = np.array([0.004, -0.003]), moved.feet[moved.stance].xy
+    R = np.array([[np.cos(turn), -np.sin(turn)], [np.sin(turn), np.cos(turn)]])
+    moved.shift(delta, turn, pivot)
+    assert moved.heading == pytest.approx(kept.heading + turn)
     for _ in range(7):  # across a landing
         for gen in plans:
             gen.update()
         for tau in (0.0, 0.05):
             a, b = kept.sample(tau), moved.sample(tau)
-            np.testing.assert_allclose(b.com, a.com + delta, atol=1e-7)
-            np.testing.assert_allclose(b.com_velocity, a.com_velocity, atol=1e-7)
+            np.testing.assert_allclose(b.com, pivot + R @ (a.com - pivot) + delta, atol=1e-6)
+            np.testing.assert_allclose(b.com_velocity, R @ a.com_velocity, atol=1e-6)
+            np.testing.assert_allclose(b.zmp, pivot + R @ (a.zmp - pivot) + delta, atol=1e-6)
             for side in ("left", "right"):
-                np.testing.assert_allclose(b.foot_position[side][:2], a.foot_position[side][:2] + delta, atol=1e-7)
+                np.testing.assert_allclose(b.foot_position[side][:2],
+                                           pivot + R @ (a.foot_position[side][:2] - pivot) + delta, atol=1e-6)
                 np.testing.assert_allclose(b.foot_position[side][2], a.foot_position[side][2], atol=1e-12)
+                assert b.foot_yaw[side] == pytest.approx(a.foot_yaw[side] + turn, abs=1e-9)
 
 
 @pytest.mark.parametrize("field,value", [("horizon", 1), ("single_support", 0.75), ("zmp_margin", 0.1),

@@ -29,7 +29,7 @@ from robot_ctrl.control.stabilizer import DcmStabilizer
 from robot_ctrl.control.static_feedforward import static_torques, weight_shares
 from robot_ctrl.dynfilter.dynamic_filter import DynamicFilter
 from robot_ctrl.dynfilter.filter_worker import DynamicFilterWorker
-from robot_ctrl.geometry import SIDES, other, yaw_of
+from robot_ctrl.geometry import SIDES, other, rotation, wrap_angle, yaw_of
 from robot_ctrl.hw.types import JointCommand, JointState
 from robot_ctrl.modes import FilterMode
 from robot_ctrl.robot.model import RobotModel, configuration
@@ -40,6 +40,8 @@ from robot_ctrl.wpg.params import WalkParams
 
 MAX_BALANCE_SHIFT = 0.04  # [m] of :meth:`WalkingController.shift_balance`, well inside a sole
 MAX_FOOT_FOLLOW = 0.05  # [m] per sample: a larger gap (a push, a slipping foot) is closed over several samples
+MAX_YAW_FOLLOW = 0.05  # [rad] per sample, likewise for the stance foot's yaw ...
+YAW_DEAD_BAND = 0.02  # [rad] ... beyond this: soles land within tenths of a degree of their plan, slips turn by more
 MIN_STANCE_TICKS = 5  # measurements of a stance foot needed to follow it
 
 
@@ -111,7 +113,7 @@ class WalkingController:
         self._sample_hooks: list[Callable[[PlanSample], None]] = []
         self._hands: dict[str, tuple[np.ndarray, np.ndarray] | None] = {s: None for s in SIDES}
         self._balance_shift = np.zeros(2)
-        self._stance: tuple[str, np.ndarray, int] | None = None  # side, sum of measured sole xy, ticks
+        self._stance: tuple[str, np.ndarray, complex, int] | None = None  # side, sums of sole xy and yaw phasor, ticks
 
     # Commands ---------------------------------------------------------------------------------
     def on_sample(self, hook: Callable[[PlanSample], None]) -> None:
@@ -239,34 +241,44 @@ class WalkingController:
         whose feet are elsewhere and the stabilizer's bounded correction ends by not being enough (a
         10 m walk fell). The mean over the sample keeps attitude noise (a leg's 1 m lever) out of the
         plan. The joints' references do not change; the plan's future steps start from the real feet.
-        A gap larger than ``MAX_FOOT_FOLLOW`` is closed by that much per sample: one jump could come
-        from a foot still settling, and a push or a slip that moved the robot by decimetres must not
-        leave the plan (and the path follower, which steers the plan) walking elsewhere."""
+        The plan turns about the planned stance foot by the sole's yaw error beyond ``YAW_DEAD_BAND``,
+        then moves by its position error, at most ``MAX_YAW_FOLLOW`` and ``MAX_FOOT_FOLLOW`` per
+        sample: one jump could
+        come from a foot still settling, and a push or a slip that turned or moved the robot by
+        decimetres must not leave the plan (and the path follower, which steers the plan) walking
+        elsewhere."""
         stance, self._stance = self._stance, None
-        if stance is None or stance[2] < MIN_STANCE_TICKS:
+        if stance is None or stance[3] < MIN_STANCE_TICKS:
             return
-        side, total, n = stance
+        side, total, heading, n = stance
         planned = self.wpg.feet[side]
-        delta = total / n - (planned.x, planned.y)
+        yaw_gap = wrap_angle(np.angle(heading) - planned.yaw)
+        turn = float(np.sign(yaw_gap) * min(max(abs(yaw_gap) - YAW_DEAD_BAND, 0.0), MAX_YAW_FOLLOW))
+        delta = total / n - planned.xy
         gap = float(np.linalg.norm(delta))
         if gap > MAX_FOOT_FOLLOW:
             delta *= MAX_FOOT_FOLLOW / gap
-        self.wpg.shift(delta)
+        self.wpg.shift(delta, turn, planned.xy)
         q = self.ik.q.copy()
-        q[:2] += delta
+        R = rotation(turn)
+        q[:2] = planned.xy + R @ (q[:2] - planned.xy) + delta
+        base = pin.Quaternion(pin.utils.rpyToMatrix(0.0, 0.0, turn) @ pin.Quaternion(q[6], *q[3:6]).matrix())
+        q[3:7] = base.coeffs()  # x, y, z, w
         self.ik.set_configuration(q)
 
     def _measure_stance(self, ref: WalkReference) -> None:
-        """Add this tick's measured sole of the plan's single stance foot, if it alone touches."""
+        """Add this tick's measured sole of the plan's single stance foot, if it alone touches
+        (position, and yaw as a unit phasor so that its mean does not wrap)."""
         est = self.estimate
         down = [s for s in SIDES if ref.in_contact[s]]
         if len(down) != 1 or not est.in_contact[down[0]] or est.in_contact[other(down[0])]:
             return
         side = down[0]
         if self._stance is None or self._stance[0] != side:
-            self._stance = (side, np.zeros(2), 0)
-        _, total, n = self._stance
-        self._stance = (side, total + est.soles[side].translation[:2], n + 1)
+            self._stance = (side, np.zeros(2), 0j, 0)
+        _, total, heading, n = self._stance
+        sole = est.soles[side]
+        self._stance = (side, total + sole.translation[:2], heading + np.exp(1j * yaw_of(sole.rotation)), n + 1)
 
     def step(self, state: JointState) -> JointCommand:
         """The joint command for the tick from the measured ``state``: the balance stabilizer's

@@ -23,6 +23,12 @@ class Footstep:
     def xy(self) -> np.ndarray:
         return np.array([self.x, self.y])
 
+    def moved(self, delta: np.ndarray, turn: float = 0.0, pivot: np.ndarray = np.zeros(2)) -> "Footstep":
+        """This footstep turned by ``turn`` [rad] about ``pivot`` (2,), then translated by ``delta``
+        (2,) [m]: ``p' = pivot + R(turn) (p − pivot) + delta``, ``yaw' = yaw + turn`` (world frame)."""
+        x, y = pivot + rotation(turn) @ (self.xy - pivot) + delta
+        return Footstep(self.side, float(x), float(y), self.yaw + turn)
+
 
 @dataclass(frozen=True)
 class FootRef:

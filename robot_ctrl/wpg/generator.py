@@ -295,19 +295,23 @@ class WalkingPatternGenerator:
         y = (w + lo, w + hi) if side == "left" else (-w - hi, -w - lo)
         return (*self.p.reach_x, *y)
 
-    def shift(self, delta: np.ndarray) -> None:
-        """Translate the plan by ``delta`` (2,) [m] (world frame): its CoM state, its feet and the
-        swing under way, so that it continues from where the feet really are. Call it between
-        samples (before :meth:`update`); where the feet must end (``stop_at``) stays."""
-        dx, dy = (float(v) for v in delta)
-        self.com_x[0] += dx
-        self.com_y[0] += dy
-        self.feet = {s: Footstep(f.side, f.x + dx, f.y + dy, f.yaw) for s, f in self.feet.items()}
+    def shift(self, delta: np.ndarray, turn: float = 0.0, pivot: np.ndarray = np.zeros(2)) -> None:
+        """Move the plan rigidly in the plane, turned by ``turn`` [rad] about ``pivot`` (2,) and then
+        translated by ``delta`` (2,) [m] (world frame): its CoM state, its feet, the swing under way
+        and its heading, so that it continues from where the feet really are. Call it between samples
+        (before :meth:`update`); where the feet must end (``stop_at``) stays."""
+        R = rotation(turn)
+        com = np.stack([self.com_x, self.com_y])  # rows x, y; columns position, velocity, acceleration
+        com = R @ com
+        com[:, 0] += pivot - R @ pivot + delta
+        self.com_x, self.com_y = com[0].copy(), com[1].copy()
+        self.feet = {s: f.moved(delta, turn, pivot) for s, f in self.feet.items()}
+        self.heading += turn
         if self.swing is not None:
-            self.swing.shift(delta)
+            self.swing.shift(delta, turn, pivot)
         if self.settle_from is not None:
             f = self.settle_from
-            self.settle_from = FootRef(f.side, f.yaw, f.offset + (dx, dy), f.S)
+            self.settle_from = FootRef(f.side, f.yaw + turn, pivot + R @ (f.offset - pivot) + delta, f.S)
 
     # Stepping ---------------------------------------------------------------------------------
     def update(self) -> MpcSolution:

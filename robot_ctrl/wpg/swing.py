@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from robot_ctrl.geometry import wrap_angle
+from robot_ctrl.geometry import rotation, wrap_angle
 from robot_ctrl.wpg.footstep import Footstep
 
 
@@ -55,13 +55,17 @@ class SwingTrajectory:
         self._t0 = t
         self.landing = landing
 
-    def shift(self, delta: np.ndarray) -> None:
-        """Translate the whole trajectory by ``delta`` (2,) [m] in the plane."""
-        dx, dy = (float(v) for v in delta)
-        self._c = self._c.copy()
-        self._c[0, :2] += (dx, dy)
-        self.lift = Footstep(self.lift.side, self.lift.x + dx, self.lift.y + dy, self.lift.yaw)
-        self.landing = Footstep(self.landing.side, self.landing.x + dx, self.landing.y + dy, self.landing.yaw)
+    def shift(self, delta: np.ndarray, turn: float = 0.0, pivot: np.ndarray = np.zeros(2)) -> None:
+        """Move the whole trajectory rigidly in the plane: turned by ``turn`` [rad] about ``pivot``
+        (2,), then translated by ``delta`` (2,) [m] (:meth:`Footstep.moved`)."""
+        R = rotation(turn)
+        c = self._c.copy()
+        c[:, :2] = c[:, :2] @ R.T  # every coefficient of the plane's polynomial turns ...
+        c[0, :2] += pivot - R @ pivot + delta  # ... the constant one about the pivot
+        c[0, 2] += turn
+        self._c = c
+        self.lift = self.lift.moved(delta, turn, pivot)
+        self.landing = self.landing.moved(delta, turn, pivot)
 
     def at(self, t: float) -> tuple[np.ndarray, float, np.ndarray, float]:
         """``(position (3,), yaw, linear velocity (3,), yaw rate)`` at ``t`` seconds into the swing."""
