@@ -243,10 +243,9 @@ class WalkingController:
         plan. The joints' references do not change; the plan's future steps start from the real feet.
         The plan turns about the planned stance foot by the sole's yaw error beyond ``YAW_DEAD_BAND``,
         then moves by its position error, at most ``MAX_YAW_FOLLOW`` and ``MAX_FOOT_FOLLOW`` per
-        sample: one jump could
-        come from a foot still settling, and a push or a slip that turned or moved the robot by
-        decimetres must not leave the plan (and the path follower, which steers the plan) walking
-        elsewhere."""
+        sample: one jump could come from a foot still settling, and a push or a slip that turned or
+        moved the robot by decimetres must not leave the plan (and the path follower, which steers
+        the plan) walking elsewhere."""
         stance, self._stance = self._stance, None
         if stance is None or stance[3] < MIN_STANCE_TICKS:
             return
