@@ -122,7 +122,7 @@ def test_sigterm_closes_the_hardware_and_exits_130(tmp_path):
     import sys
     import time
 
-    process = subprocess.Popen([sys.executable, "-m", "robot_ctrl.cli", "walk", "--distance", "3", "--quiet",
+    process = subprocess.Popen([sys.executable, "-m", "robot_ctrl.cli", "walk", "--distance", "10", "--quiet",
                                 "--out", str(tmp_path)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     time.sleep(6.0)  # into the walk
     process.send_signal(signal.SIGTERM)

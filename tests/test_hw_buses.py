@@ -373,7 +373,7 @@ def test_ctrl_c_mid_walk_sends_damping_then_disables(monkeypatch, capsys):
     timer = threading.Timer(8.0, os.kill, (os.getpid(), signal.SIGINT))
     timer.start()
     try:
-        assert main(["walk", "--distance", "3", "--hw", "mit-can-emulated", "--quiet"]) == 130
+        assert main(["walk", "--distance", "10", "--hw", "mit-can-emulated", "--quiet"]) == 130
     finally:
         timer.cancel()
     assert capsys.readouterr().err.strip().splitlines()[-1] == "robot-ctrl: interrupted"
