@@ -370,9 +370,8 @@ def test_ctrl_c_mid_walk_sends_damping_then_disables(monkeypatch, capsys):
         emulators.append(self)
 
     monkeypatch.setattr(MitCanEmulator, "__init__", recorded)
-    # The SIGINT is raised by the control loop's own thread, 400 ticks (2 s) into the walk. Sent by
-    # a timer thread 8 s after the start, it did not stop the walk in two full-suite runs (cause not
-    # found; in-process real-servo runs leave this process under SCHED_FIFO, granted on this machine).
+    # The SIGINT is raised by the control loop's own thread, 400 ticks (2 s) into the walk: at a known
+    # point of the walk, whatever the machine's speed.
     controller_step, ticks = WalkingController.step, []
 
     def step(self, state):
@@ -383,7 +382,8 @@ def test_ctrl_c_mid_walk_sends_damping_then_disables(monkeypatch, capsys):
 
     monkeypatch.setattr(WalkingController, "step", step)
     # Python's own SIGINT handling, as a fresh `robot-ctrl` process has it: in full-suite runs an
-    # earlier test leaves this process with another SIGINT handler (not found which).
+    # earlier test leaves this process with another SIGINT handler (not found which), and even a
+    # SIGINT raised in the loop's thread did not stop the walk.
     previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         assert main(["walk", "--distance", "3", "--hw", "mit-can-emulated", "--quiet"]) == 130

@@ -158,12 +158,12 @@ def test_a_shifted_plan_is_the_same_plan_moved(turn):
             gen.update()
         for tau in (0.0, 0.05):
             a, b = kept.sample(tau), moved.sample(tau)
-            np.testing.assert_allclose(b.com, pivot + R @ (a.com - pivot) + delta, atol=1e-6)
-            np.testing.assert_allclose(b.com_velocity, R @ a.com_velocity, atol=1e-6)
-            np.testing.assert_allclose(b.zmp, pivot + R @ (a.zmp - pivot) + delta, atol=1e-6)
+            np.testing.assert_allclose(b.com, pivot + R @ (a.com - pivot) + delta, atol=1e-7)
+            np.testing.assert_allclose(b.com_velocity, R @ a.com_velocity, atol=1e-7)
+            np.testing.assert_allclose(b.zmp, pivot + R @ (a.zmp - pivot) + delta, atol=1e-7)
             for side in ("left", "right"):
                 np.testing.assert_allclose(b.foot_position[side][:2],
-                                           pivot + R @ (a.foot_position[side][:2] - pivot) + delta, atol=1e-6)
+                                           pivot + R @ (a.foot_position[side][:2] - pivot) + delta, atol=1e-7)
                 np.testing.assert_allclose(b.foot_position[side][2], a.foot_position[side][2], atol=1e-12)
                 assert b.foot_yaw[side] == pytest.approx(a.foot_yaw[side] + turn, abs=1e-9)
 
