@@ -275,12 +275,12 @@ def _robustness(args: argparse.Namespace) -> int:
     if not 1 <= args.jobs <= 64:
         raise ConfigError(f"robustness: --jobs {args.jobs} is outside the allowed range [1, 64]")
     single, double = _step_timing(args, "robustness")
-    grid = {"phases": robustness.push_phases(single, double)}
+    grid = {}
     if args.quick:  # a smoke test of the campaign: two directions, one phase, two magnitudes
-        grid = dict(directions=(0, -90), phases={"single_mid": grid["phases"]["single_mid"]}, magnitudes=(0.1, 0.2),
+        grid = dict(directions=(0, -90), phases=("single_mid",), magnitudes=(0.1, 0.2),
                     mismatch={k: robustness.MISMATCH[k] for k in ("mass ×1.15", "latency 10 ms")})
-    robustness.run_robustness(args.out, args.jobs, log=_log, progress=not args.quiet,
-                              walk=robustness.walk_command(single, double), **grid)
+    robustness.run_robustness(args.out, args.jobs, log=_log, progress=not args.quiet, single=single, double=double,
+                              **grid)
     return 0
 
 

@@ -4,11 +4,11 @@ import json
 
 from robot_ctrl.cli import main
 from robot_ctrl.eval.robustness_report import render_robustness
-from robot_ctrl.scenarios.robustness import PHASES, run_robustness
+from robot_ctrl.scenarios.robustness import run_robustness
 
 
 def test_a_small_campaign(tmp_path):
-    result = run_robustness(tmp_path, jobs=2, directions=(-90,), phases={"single_mid": PHASES["single_mid"]},
+    result = run_robustness(tmp_path, jobs=2, directions=(-90,), phases=("single_mid",),
                             magnitudes=(0.2, 2.0), mismatch={"latency 10 ms": ("--latency-ms", "10")},
                             log=lambda _: None, progress=False)
     # 0.2 N·s/kg to the right mid-step is survived, 2 N·s/kg is not: the largest survived is 0.2.

@@ -5,7 +5,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from robot_ctrl.geometry import rotation
+from robot_ctrl.geometry import PlanarMove, rotation
 from robot_ctrl.wpg.footstep import Footstep
 from robot_ctrl.wpg.generator import WalkingPatternGenerator
 from robot_ctrl.wpg.lipm import com_at, horizon_matrices
@@ -137,6 +137,15 @@ def test_stop_at_puts_the_feet_on_the_goal():
         np.testing.assert_allclose(gen.feet[side].xy, goal[side].xy, atol=1e-9)
 
 
+def test_a_planar_move_turns_about_its_pivot_then_translates():
+    move = PlanarMove(np.array([0.0, 1.0]), np.pi / 2, np.array([1.0, 0.0]))
+    np.testing.assert_allclose(move.point([2.0, 0.0]), [1.0, 2.0], atol=1e-12)
+    np.testing.assert_allclose(move.point([[1.0, 0.0], [1.0, -1.0]]), [[1.0, 1.0], [2.0, 1.0]], atol=1e-12)
+    np.testing.assert_allclose(move.direction([1.0, 0.0]), [0.0, 1.0], atol=1e-12)
+    step = Footstep("left", 2.0, 0.0, 0.1).moved(move)
+    assert (step.x, step.y, step.yaw) == pytest.approx((1.0, 2.0, 0.1 + np.pi / 2))
+
+
 @pytest.mark.parametrize("turn", [0.0, 0.05])
 def test_a_shifted_plan_is_the_same_plan_moved(turn):
     """``shift`` mid-swing turns and moves the CoM, the feet, the swing under way and the heading,
@@ -151,7 +160,7 @@ def test_a_shifted_plan_is_the_same_plan_moved(turn):
     assert moved.phase == "single"
     delta, pivot = np.array([0.004, -0.003]), moved.feet[moved.stance].xy
     R = np.array([[np.cos(turn), -np.sin(turn)], [np.sin(turn), np.cos(turn)]])
-    moved.shift(delta, turn, pivot)
+    moved.shift(PlanarMove(delta, turn, pivot))
     assert moved.heading == pytest.approx(kept.heading + turn)
     for _ in range(7):  # across a landing
         for gen in plans:

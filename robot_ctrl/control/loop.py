@@ -77,6 +77,7 @@ class LoopResult:
     stop_reason: str
     states: list[JointState]  # the last states read
     wall_s: float  # [s] wall-clock time of the loop
+    dt: float  # [s] control period of the loop
 
     @property
     def rtf(self) -> float:
@@ -125,7 +126,7 @@ class ControlLoop:
                     recorder.on_state(tick)
                 reason = next((r for r in (s.reason(tick) for s in self.stops) if r is not None), None)
                 if reason is not None:
-                    return LoopResult(k + 1, reason, states, time.perf_counter() - wall0)
+                    return LoopResult(k + 1, reason, states, time.perf_counter() - wall0, self.dt)
                 k += 1
         finally:
             for controller in self.controllers:

@@ -29,7 +29,7 @@ from robot_ctrl.control.stabilizer import DcmStabilizer
 from robot_ctrl.control.static_feedforward import static_torques, weight_shares
 from robot_ctrl.dynfilter.dynamic_filter import DynamicFilter
 from robot_ctrl.dynfilter.filter_worker import DynamicFilterWorker
-from robot_ctrl.geometry import SIDES, other, rotation, wrap_angle, yaw_of
+from robot_ctrl.geometry import SIDES, PlanarMove, other, wrap_angle, yaw_of
 from robot_ctrl.hw.types import JointCommand, JointState
 from robot_ctrl.modes import FilterMode
 from robot_ctrl.robot.model import RobotModel, configuration
@@ -257,10 +257,10 @@ class WalkingController:
         gap = float(np.linalg.norm(delta))
         if gap > MAX_FOOT_FOLLOW:
             delta *= MAX_FOOT_FOLLOW / gap
-        self.wpg.shift(delta, turn, planned.xy)
+        move = PlanarMove(delta, turn, planned.xy)
+        self.wpg.shift(move)
         q = self.ik.q.copy()
-        R = rotation(turn)
-        q[:2] = planned.xy + R @ (q[:2] - planned.xy) + delta
+        q[:2] = move.point(q[:2])
         base = pin.Quaternion(pin.utils.rpyToMatrix(0.0, 0.0, turn) @ pin.Quaternion(q[6], *q[3:6]).matrix())
         q[3:7] = base.coeffs()  # x, y, z, w
         self.ik.set_configuration(q)

@@ -6,6 +6,8 @@ floor, counter-clockwise from the world x axis [rad].
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
+
 import numpy as np
 
 SIDES = ("left", "right")
@@ -30,6 +32,29 @@ def rotation(yaw: float) -> np.ndarray:
     """2×2 rotation by ``yaw`` [rad]: ``R(ψ) = [[cos ψ, −sin ψ], [sin ψ, cos ψ]]``."""
     c, s = np.cos(yaw), np.sin(yaw)
     return np.array([[c, -s], [s, c]])
+
+
+@dataclass(frozen=True)
+class PlanarMove:
+    """A rigid move of the floor plane: a turn by ``turn`` [rad] about ``pivot`` (2,) [m], then a
+    translation by ``delta`` (2,) [m], world frame: ``p' = pivot + R(turn) (p − pivot) + delta``;
+    directions (velocities) turn, ``v' = R(turn) v``; headings add, ``ψ' = ψ + turn``."""
+
+    delta: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    turn: float = 0.0
+    pivot: np.ndarray = field(default_factory=lambda: np.zeros(2))
+
+    @property
+    def R(self) -> np.ndarray:
+        return rotation(self.turn)
+
+    def point(self, p: np.ndarray) -> np.ndarray:
+        """Moved point(s) ``p`` (..., 2)."""
+        return self.pivot + (np.asarray(p) - self.pivot) @ self.R.T + self.delta
+
+    def direction(self, v: np.ndarray) -> np.ndarray:
+        """Turned vector(s) ``v`` (..., 2): velocities, accelerations, polynomial coefficients."""
+        return np.asarray(v) @ self.R.T
 
 
 def relative_pose(pose: np.ndarray, origin: np.ndarray) -> np.ndarray:

@@ -65,7 +65,7 @@ def run_balance(robot: RobotModel, hw: SafetyLayer, params: BalanceParams = Bala
         log(result.stop_reason)
     report = run.metrics.report() | dict(robot=robot.name, hand_error_m=hand.error,
                                          hand_target_floor_m=list(params.hand_target)) | run.report(
-        result, disturbances, dt)
+        result, disturbances)
     log(f"safety layer: {report['safety']}")
     log(f"fell: {str(report['fell']).lower()}  hand_error_m: {hand.error}  peak_torque_ratio: "
         f"{report['peak_torque_ratio']:.3f} ({report['peak_torque_joint']})  peak_grf_n: {report['peak_grf_n']}  "

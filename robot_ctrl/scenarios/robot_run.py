@@ -58,11 +58,11 @@ class RobotRun:
         finally:
             bar.close()
 
-    def report(self, result: LoopResult, disturbances: Disturbances, dt: float) -> dict:
+    def report(self, result: LoopResult, disturbances: Disturbances) -> dict:
         """The fields every run's report ends with: how the base was seen, the safety layer, the
         disturbances, the real-time factor and rate, and on real servos the pacer's timing."""
         report = dict(**self.view.report(), safety=self.hw.report(), disturbances=disturbances.to_dict(),
-                      rtf=round(result.rtf, 3), control_rate_hz=round(1.0 / dt, 3))
+                      rtf=round(result.rtf, 3), control_rate_hz=round(1.0 / result.dt, 3))
         if self.pacer is not None:
             report["timing"] = self.pacer.report()
         return report

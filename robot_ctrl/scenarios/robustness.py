@@ -39,7 +39,7 @@ def walk_command(single: float = WalkParams.single_support, double: float = Walk
     return (*WALK, "--single-support", f"{single:g}", "--double-support", f"{double:g}")
 
 
-PHASES = push_phases()
+PHASES = tuple(push_phases())  # their names
 MAGNITUDES = (0.1, 0.2, 0.3, 0.4, 0.5)  # [N·s/kg]
 MISMATCH = {"mass ×0.85": ("--mass-scale", "0.85"), "mass ×1.15": ("--mass-scale", "1.15"),
             "friction ×0.3": ("--friction-scale", "0.3"), "friction ×0.4": ("--friction-scale", "0.4"),
@@ -51,13 +51,16 @@ def _walked(report: dict) -> bool:
     return "error" not in report and not report["fell"]
 
 
-def run_robustness(out_dir: Path, jobs: int = 1, directions=DIRECTIONS, phases: dict = PHASES,
+def run_robustness(out_dir: Path, jobs: int = 1, directions=DIRECTIONS, phases=PHASES,
                    magnitudes=MAGNITUDES, mismatch: dict = MISMATCH, log: Callable[[str], None] = print,
-                   progress: bool = True, walk: tuple = WALK) -> dict:
+                   progress: bool = True, single: float = WalkParams.single_support,
+                   double: float = WalkParams.double_support) -> dict:
     """Pushes grow per (direction, phase) until the first fall: one round of trials per magnitude,
-    only for the cells that walked the round before. ``walk``: the walk's command line
-    (:func:`walk_command`); ``phases`` must be its own (:func:`push_phases`)."""
+    only for the cells that walked the round before. ``phases``: names of :func:`push_phases`;
+    ``single``, ``double``: the walk's step timing [s], which sets its push times too."""
     out_dir = Path(out_dir)
+    walk, times = walk_command(single, double), push_phases(single, double)
+    phases = {p: times[p] for p in phases}
     largest = {(d, p): 0.0 for d in directions for p in phases}
     capturable: dict[tuple, float | None] = {cell: None for cell in largest}  # the LIP's bound (eval.push_capture)
     ended: dict[tuple, float | None] = {cell: None for cell in largest}  # final error after the largest survived

@@ -74,7 +74,7 @@ def run_walk(robot: RobotModel, hw: SafetyLayer, goal: WalkGoal, settings: WalkS
         double_support_s=s.double_support, stabilizer=s.stabilize, arms=s.arms.value,
         dynfilter=s.dynfilter.value, dynfilter_passes=s.dynfilter_passes if filtered else 0,
         dynfilter_fallbacks=controller.filter_fallbacks, dynfilter_worker=s.dynfilter_worker and filtered,
-        push_capture=capture.report()) | run.report(result, disturbances, dt)
+        push_capture=capture.report()) | run.report(result, disturbances)
     log(f"fell: {str(report['fell']).lower()}  final base (x, y, yaw) {report['final_base_xy_yaw']} vs commanded "
         f"{report['commanded_base_xy_yaw']}  zmp_in_support_ratio {report['zmp_in_support_ratio']}  "
         f"peak_torque_ratio {report['peak_torque_ratio']:.3f}  steps {len(walk.footsteps)}  rtf {report['rtf']}")

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robot_ctrl.geometry import other, rotation
+from robot_ctrl.geometry import PlanarMove, other, rotation
 
 
 @dataclass(frozen=True)
@@ -23,11 +23,10 @@ class Footstep:
     def xy(self) -> np.ndarray:
         return np.array([self.x, self.y])
 
-    def moved(self, delta: np.ndarray, turn: float = 0.0, pivot: np.ndarray = np.zeros(2)) -> "Footstep":
-        """This footstep turned by ``turn`` [rad] about ``pivot`` (2,), then translated by ``delta``
-        (2,) [m]: ``p' = pivot + R(turn) (p − pivot) + delta``, ``yaw' = yaw + turn`` (world frame)."""
-        x, y = pivot + rotation(turn) @ (self.xy - pivot) + delta
-        return Footstep(self.side, float(x), float(y), self.yaw + turn)
+    def moved(self, move: PlanarMove) -> "Footstep":
+        """This footstep moved rigidly in the plane (world frame)."""
+        x, y = move.point(self.xy)
+        return Footstep(self.side, float(x), float(y), self.yaw + move.turn)
 
 
 @dataclass(frozen=True)

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robot_ctrl.geometry import GRAVITY, other, rotation, wrap_angle
+from robot_ctrl.geometry import GRAVITY, PlanarMove, other, rotation, wrap_angle
 from robot_ctrl.geometry.support_polygon import SupportPolygon
 from robot_ctrl.wpg.footstep import FootRef, Footstep
 from robot_ctrl.wpg.lipm import com_at
@@ -295,23 +295,20 @@ class WalkingPatternGenerator:
         y = (w + lo, w + hi) if side == "left" else (-w - hi, -w - lo)
         return (*self.p.reach_x, *y)
 
-    def shift(self, delta: np.ndarray, turn: float = 0.0, pivot: np.ndarray = np.zeros(2)) -> None:
-        """Move the plan rigidly in the plane, turned by ``turn`` [rad] about ``pivot`` (2,) and then
-        translated by ``delta`` (2,) [m] (world frame): its CoM state, its feet, the swing under way
-        and its heading, so that it continues from where the feet really are. Call it between samples
-        (before :meth:`update`); where the feet must end (``stop_at``) stays."""
-        R = rotation(turn)
-        com = np.stack([self.com_x, self.com_y])  # rows x, y; columns position, velocity, acceleration
-        com = R @ com
-        com[:, 0] += pivot - R @ pivot + delta
-        self.com_x, self.com_y = com[0].copy(), com[1].copy()
-        self.feet = {s: f.moved(delta, turn, pivot) for s, f in self.feet.items()}
-        self.heading += turn
+    def shift(self, move: PlanarMove) -> None:
+        """Move the plan rigidly in the plane (world frame): its CoM state, its feet, the swing under
+        way and its heading, so that it continues from where the feet really are. Call it between
+        samples (before :meth:`update`); where the feet must end (``stop_at``) stays."""
+        com = np.stack([self.com_x, self.com_y], axis=1)  # rows position, velocity, acceleration
+        com = np.vstack([move.point(com[0]), move.direction(com[1:])])
+        self.com_x, self.com_y = com[:, 0].copy(), com[:, 1].copy()
+        self.feet = {s: f.moved(move) for s, f in self.feet.items()}
+        self.heading += move.turn
         if self.swing is not None:
-            self.swing.shift(delta, turn, pivot)
+            self.swing.shift(move)
         if self.settle_from is not None:
             f = self.settle_from
-            self.settle_from = FootRef(f.side, f.yaw + turn, pivot + R @ (f.offset - pivot) + delta, f.S)
+            self.settle_from = FootRef(f.side, f.yaw + move.turn, move.point(f.offset), f.S)
 
     # Stepping ---------------------------------------------------------------------------------
     def update(self) -> MpcSolution:

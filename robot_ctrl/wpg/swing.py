@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from robot_ctrl.geometry import rotation, wrap_angle
+from robot_ctrl.geometry import PlanarMove, wrap_angle
 from robot_ctrl.wpg.footstep import Footstep
 
 
@@ -55,17 +55,15 @@ class SwingTrajectory:
         self._t0 = t
         self.landing = landing
 
-    def shift(self, delta: np.ndarray, turn: float = 0.0, pivot: np.ndarray = np.zeros(2)) -> None:
-        """Move the whole trajectory rigidly in the plane: turned by ``turn`` [rad] about ``pivot``
-        (2,), then translated by ``delta`` (2,) [m] (:meth:`Footstep.moved`)."""
-        R = rotation(turn)
+    def shift(self, move: PlanarMove) -> None:
+        """Move the whole trajectory rigidly in the plane (world frame)."""
         c = self._c.copy()
-        c[:, :2] = c[:, :2] @ R.T  # every coefficient of the plane's polynomial turns ...
-        c[0, :2] += pivot - R @ pivot + delta  # ... the constant one about the pivot
-        c[0, 2] += turn
+        c[1:, :2] = move.direction(c[1:, :2])  # the polynomial's higher coefficients turn, ...
+        c[0, :2] = move.point(c[0, :2])  # ... its constant one moves
+        c[0, 2] += move.turn
         self._c = c
-        self.lift = self.lift.moved(delta, turn, pivot)
-        self.landing = self.landing.moved(delta, turn, pivot)
+        self.lift = self.lift.moved(move)
+        self.landing = self.landing.moved(move)
 
     def at(self, t: float) -> tuple[np.ndarray, float, np.ndarray, float]:
         """``(position (3,), yaw, linear velocity (3,), yaw rate)`` at ``t`` seconds into the swing."""
