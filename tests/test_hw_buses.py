@@ -381,9 +381,8 @@ def test_ctrl_c_mid_walk_sends_damping_then_disables(monkeypatch, capsys):
         return controller_step(self, state)
 
     monkeypatch.setattr(WalkingController, "step", step)
-    # Python's own SIGINT handling, as a fresh `robot-ctrl` process has it: in full-suite runs an
-    # earlier test leaves this process with another SIGINT handler (not found which), and even a
-    # SIGINT raised in the loop's thread did not stop the walk.
+    # Python's own SIGINT handling, as `robot-ctrl` has it when started from a terminal: a test run
+    # started as a background job (`cmd &` in a script) inherits SIGINT ignored, which Python keeps.
     previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         assert main(["walk", "--distance", "3", "--hw", "mit-can-emulated", "--quiet"]) == 130
