@@ -68,6 +68,11 @@ def test_double_support_adds_the_hull_and_either_foot_stepping():
     np.testing.assert_allclose(hull[0], [-0.105, -0.065])
     np.testing.assert_allclose(hull[1], [0.205, 0.285])
     assert len(steps) == 2 and steps[0][0][1] == pytest.approx(-0.065)  # the right foot standing: its own edge
+    # With the step timing kept, only the trailing foot lifts: the left one stays.
+    hull_kept, kept = capture_boxes(MODEL, support, wait=0.0, stays="left")
+    np.testing.assert_allclose(hull_kept, hull)
+    np.testing.assert_allclose(kept, steps[1])
+    assert kept[1][1] == pytest.approx(0.22 + 0.065)  # the left foot standing: its own outer edge
 
 
 def test_crossing_feet_are_refused():

@@ -124,3 +124,5 @@ def test_a_robot_that_falls_is_reported_as_fallen(tmp_path):
     # below the push.
     (capture,) = report["push_capture"]
     assert capture["support"] == "right" and 0.2 < capture["lip_capturable_ns_per_kg"] < 0.6
+    # Only the stance sole's edge acts on that side: when the swing foot lands does not matter.
+    assert capture["lip_capturable_own_timing_ns_per_kg"] == capture["lip_capturable_ns_per_kg"]

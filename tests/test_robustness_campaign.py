@@ -14,25 +14,28 @@ def test_a_small_campaign(tmp_path):
     # 0.2 N·s/kg to the right mid-step is survived, 2 N·s/kg is not: the largest survived is 0.2.
     (cell,) = result["largest_survived_push"]
     bound, ended = cell["lip_capturable_ns_per_kg"], cell["final_position_error_m"]
+    own = cell["lip_capturable_own_timing_ns_per_kg"]
     assert cell == {"direction_deg": -90, "phase": "single_mid", "impulse_ns_per_kg": 0.2,
-                    "final_position_error_m": ended, "lip_capturable_ns_per_kg": bound}
+                    "final_position_error_m": ended, "lip_capturable_ns_per_kg": bound,
+                    "lip_capturable_own_timing_ns_per_kg": own}
     survived = json.loads((tmp_path / "push_single_mid_-90_0.2" / "report.json").read_text())
     assert ended == survived["final_position_error_m"] < 0.05
     pushed = json.loads((tmp_path / "push_single_mid_-90_2.0" / "report.json").read_text())
     assert pushed["fell"] is True and pushed["disturbances"]["pushes"][0]["impulse_ns_per_kg"] == 2.0
     # Mid-step on the right foot, pushed right: only the right sole's outer edge can catch it (the feet
     # do not cross), from a DCM a few centimetres inside that edge: a bound between the two pushes.
-    assert pushed["push_capture"] == [{"time_s": 2.8, "support": "right", "lip_capturable_ns_per_kg": bound}]
-    assert 0.3 < bound < 0.6
+    assert pushed["push_capture"] == [{"time_s": 2.8, "support": "right", "lip_capturable_ns_per_kg": bound,
+                                       "lip_capturable_own_timing_ns_per_kg": own}]
+    assert 0.3 < bound < 0.6 and own == bound  # (on that side the landing's time does not matter)
     (latency,) = result["mismatch"]
     assert latency["walked"] and latency["final_position_error_m"] < 0.05
     page = (tmp_path / "robustness.html").read_text()
-    assert f"<td>0.2 ({bound:.2f})</td>" in page
+    assert f"<td>0.2 ({bound:.2f} | {own:.2f})</td>" in page
     assert "data:image/png;base64," in page and "latency 10 ms" in page and "http" not in page.replace("http-equiv", "")
     assert json.loads((tmp_path / "robustness.json").read_text()) == json.loads(json.dumps(result))
     assert "from the goal</td>" not in page
     cell["final_position_error_m"] = 0.24  # a walk that survived but ended far from its goal is marked
-    assert "<td>0.2 (" + f"{bound:.2f}), ended 240 mm from the goal</td>" in render_robustness(
+    assert "<td>0.2 (" + f"{bound:.2f} | {own:.2f}), ended 240 mm from the goal</td>" in render_robustness(
         result, tmp_path / "marked.html").read_text()
 
 

@@ -206,6 +206,11 @@ def test_a_robot_pushed_over_is_reported_fallen_with_exit_status_1(tmp_path):
     assert report["fell"] is True and 1.0 < report["fall_time_s"] < 3.0
     assert "base height" in report["fall_reason"] or "touching the floor" in report["fall_reason"]
     assert report["final_base_xy_yaw"][1] > 0.5  # it went over to the left
+    # 0.1 s into a single support on the right foot, pushed towards the swing foot: a landing 0.2 s
+    # later could catch more than the walk's own, 0.6 s later; neither this push.
+    (capture,) = report["push_capture"]
+    assert capture["support"] == "right"
+    assert 0.2 < capture["lip_capturable_own_timing_ns_per_kg"] < capture["lip_capturable_ns_per_kg"] - 0.1 < 1.4
 
 
 def test_the_stabilizer_reduces_the_zmp_error(tmp_path):

@@ -3,7 +3,12 @@ inverted pendulum could still capture from the state the push met (``wpg.captura
 and soles measured at the push's first tick, the sole's size, the walking controller's reach and
 ``MIN_SWING``. A walk that falls under a push below this bound leaves room to its controller; a
 push above it cannot be caught by stepping within the same reach (in the LIP: a hip strategy or a
-crossing step would be needed)."""
+crossing step would be needed).
+
+A second bound keeps the walk's own step timing: the swing foot lands when the plan says (the
+current single support runs to its end; from double support only the trailing foot lifts) and every
+later swing lasts the walk's single support. A push between the two bounds needs the step timing
+to change (landing early), which the walking controller does not do."""
 
 from __future__ import annotations
 
@@ -27,11 +32,11 @@ class PushCapture:
         self.bounds: list[dict] = []
         self._phase, self._lift = None, 0.0
 
-    def model(self) -> CaptureModel:
+    def model(self, min_swing: float = MIN_SWING) -> CaptureModel:
         c = self.controller
         p, foot = c.params, c.robot.config.foot
         return CaptureModel(c.stabilizer.omega, (foot.length, foot.width), p.reach_x,
-                            (p.step_width + p.reach_y[0], p.step_width + p.reach_y[1]), MIN_SWING)
+                            (p.step_width + p.reach_y[0], p.step_width + p.reach_y[1]), min_swing)
 
     def on_command(self, tick) -> None:
         c, t = self.controller, tick.states[0].t
@@ -46,18 +51,23 @@ class PushCapture:
             to_sole = rotation(yaw).T  # world → a frame aligned with the (parallel) soles
             centre = np.asarray(c.robot.config.foot.center_offset, float)
             support = {s: to_sole @ est.soles[s].translation[:2] + centre for s in down}
-            wait = max(MIN_SWING - (t - self._lift), 0.0) if len(down) == 1 else MIN_SWING
-            model = self.model()
+            model, own = self.model(), self.model(c.params.single_support * c.wpg.time_scale)
+            elapsed = t - self._lift if len(down) == 1 else 0.0
+            boxes = capture_boxes(model, support, max(MIN_SWING - elapsed, 0.0))
+            own_boxes = capture_boxes(own, support, max(own.min_swing - elapsed, 0.0),
+                                      stays=c.wpg.stance if len(down) == 2 else None)
             angle = self.start_yaw + push.angle
-            bound = largest_capturable_impulse(model, to_sole @ est.dcm(model.omega),
-                                               to_sole @ np.array([np.cos(angle), np.sin(angle)]),
-                                               capture_boxes(model, support, wait), push.duration)
+            dcm, direction = to_sole @ est.dcm(model.omega), to_sole @ np.array([np.cos(angle), np.sin(angle)])
+            bound, own_bound = (largest_capturable_impulse(m, dcm, direction, b, push.duration)
+                                for m, b in ((model, boxes), (own, own_boxes)))
             self.bounds.append({"time_s": push.time, "support": "+".join(down),
-                                "lip_capturable_ns_per_kg": round(bound, 3)})
+                                "lip_capturable_ns_per_kg": round(bound, 3),
+                                "lip_capturable_own_timing_ns_per_kg": round(own_bound, 3)})
 
     def on_state(self, tick) -> None:
         pass
 
     def report(self) -> list[dict]:
-        """Per push, in time order: the support it met and the LIP's largest capturable impulse."""
+        """Per push, in time order: the support it met and the LIP's largest capturable impulses, with
+        the earliest landing and with the walk's own step timing."""
         return self.bounds

@@ -51,7 +51,7 @@ th,td{{border:1px solid #ccc;padding:3px 8px;text-align:left;font-size:90%;}} im
 </head><body><h1>Robustness: {html.escape(result['walk'])}</h1>
 <p>Pushes of {result['push_duration_s']} s on the base, growing until the robot falls; 0: not even the smallest; {max(result['magnitudes_ns_per_kg']):g}: the largest tested, and it did not fall.
 A walk that survived its push but ended more than {GOAL_TOLERANCE * 100:g} cm from its goal says so.
-In brackets, the largest push the linear inverted pendulum could capture by stepping within the controller's reach, from the state the push met (measured); a push above it cannot be caught without a hip strategy or a crossing step (docs/robustness.md).</p>
+In brackets, the largest push the linear inverted pendulum could capture by stepping within the controller's reach, from the state the push met (measured): first with a swing foot that may land as early as 0.3 s after lift-off, a push above it cannot be caught without a hip strategy or a crossing step; then with the walk's own step timing, a push above that needs the step timing to change (docs/robustness.md).</p>
 <img alt="largest survived push" src="data:image/png;base64,{figure}">
 <table><tr><th>direction</th>{''.join(f'<th>{html.escape(p)}</th>' for p in phases)}</tr>{grid}</table>
 <h2>Model mismatch</h2><table><tr><th>run</th><th>result</th><th>final error</th><th>error</th></tr>{rows}</table>
@@ -63,9 +63,11 @@ In brackets, the largest push the linear inverted pendulum could capture by step
 
 
 def _grid_cell(c: dict) -> str:
-    bound, error = c.get("lip_capturable_ns_per_kg"), c.get("final_position_error_m")
+    bound, own = c.get("lip_capturable_ns_per_kg"), c.get("lip_capturable_own_timing_ns_per_kg")
+    error = c.get("final_position_error_m")
     off = "" if error is None or error <= GOAL_TOLERANCE else f", ended {error * 1000:.0f} mm from the goal"
-    return f"<td>{c['impulse_ns_per_kg']:g}" + ("" if bound is None else f" ({bound:.2f})") + off + "</td>"
+    bounds = "" if bound is None else f" ({bound:.2f}" + ("" if own is None else f" | {own:.2f}") + ")"
+    return f"<td>{c['impulse_ns_per_kg']:g}" + bounds + off + "</td>"
 
 
 def _mismatch_row(m: dict) -> str:

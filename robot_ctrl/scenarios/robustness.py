@@ -41,6 +41,7 @@ def walk_command(single: float = WalkParams.single_support, double: float = Walk
 
 PHASES = tuple(push_phases())  # their names
 MAGNITUDES = (0.1, 0.2, 0.3, 0.4, 0.5)  # [N·s/kg]
+BOUNDS = ("lip_capturable_ns_per_kg", "lip_capturable_own_timing_ns_per_kg")  # per push (eval.push_capture)
 MISMATCH = {"mass ×0.85": ("--mass-scale", "0.85"), "mass ×1.15": ("--mass-scale", "1.15"),
             "friction ×0.3": ("--friction-scale", "0.3"), "friction ×0.4": ("--friction-scale", "0.4"),
             "friction ×1.0": ("--friction-scale", "1.0"), "latency 5 ms": ("--latency-ms", "5"),
@@ -62,7 +63,7 @@ def run_robustness(out_dir: Path, jobs: int = 1, directions=DIRECTIONS, phases=P
     walk, times = walk_command(single, double), push_phases(single, double)
     phases = {p: times[p] for p in phases}
     largest = {(d, p): 0.0 for d in directions for p in phases}
-    capturable: dict[tuple, float | None] = {cell: None for cell in largest}  # the LIP's bound (eval.push_capture)
+    capturable: dict[tuple, dict] = {cell: {} for cell in largest}  # the LIP's bounds (eval.push_capture)
     ended: dict[tuple, float | None] = {cell: None for cell in largest}  # final error after the largest survived
     standing = list(largest)  # cells that have not fallen yet
     for m in magnitudes:
@@ -72,8 +73,9 @@ def run_robustness(out_dir: Path, jobs: int = 1, directions=DIRECTIONS, phases=P
         log(f"pushes of {m} N·s/kg: {len(trials)} walks")
         reports = run_trials(trials, out_dir, jobs, progress=progress)
         for cell, trial in zip(list(standing), trials):
-            if capturable[cell] is None and reports[trial.name].get("push_capture"):
-                capturable[cell] = reports[trial.name]["push_capture"][0]["lip_capturable_ns_per_kg"]
+            if not capturable[cell] and reports[trial.name].get("push_capture"):
+                capture = reports[trial.name]["push_capture"][0]
+                capturable[cell] = {k: capture[k] for k in BOUNDS}
             if _walked(reports[trial.name]):
                 largest[cell] = m
                 ended[cell] = reports[trial.name]["final_position_error_m"]
@@ -85,7 +87,7 @@ def run_robustness(out_dir: Path, jobs: int = 1, directions=DIRECTIONS, phases=P
     result = {
         "walk": " ".join(walk), "push_duration_s": 0.1, "phases_s": phases, "magnitudes_ns_per_kg": list(magnitudes),
         "largest_survived_push": [{"direction_deg": d, "phase": p, "impulse_ns_per_kg": v,
-                                   "final_position_error_m": ended[d, p], "lip_capturable_ns_per_kg": capturable[d, p]}
+                                   "final_position_error_m": ended[d, p]} | {k: capturable[d, p].get(k) for k in BOUNDS}
                                   for (d, p), v in largest.items()],
         "mismatch": [{"name": name, "walked": _walked(r), "fall_time_s": r.get("fall_time_s"),
                       "final_position_error_m": r.get("final_position_error_m"), "error": r.get("error")}

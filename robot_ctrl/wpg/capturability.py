@@ -76,10 +76,12 @@ def capture_box(model: CaptureModel, stance: str, wait: float) -> Box:
     return np.array([x[0], y[0]]), np.array([x[1], y[1]])
 
 
-def capture_boxes(model: CaptureModel, support: dict[str, np.ndarray], wait: float) -> list[Box]:
+def capture_boxes(model: CaptureModel, support: dict[str, np.ndarray], wait: float,
+                  stays: str | None = None) -> list[Box]:
     """Capture regions in a frame aligned with the soles: ``support`` maps each foot on the floor to
     its sole centre in that frame. One foot: single support on it, the swing foot landing ``wait``
-    seconds from now at the earliest. Both feet: their hull, or either foot lifting now."""
+    seconds from now at the earliest. Both feet: their hull, or a foot lifting now and landing
+    ``model.min_swing`` later, either foot or only the other than ``stays``."""
     if len(support) == 1:
         (side, centre), = support.items()
         lo, hi = capture_box(model, side, wait)
@@ -88,8 +90,9 @@ def capture_boxes(model: CaptureModel, support: dict[str, np.ndarray], wait: flo
     centres = np.array(list(support.values()))
     boxes = [(centres.min(axis=0) - half, centres.max(axis=0) + half)]
     for side, centre in support.items():
-        lo, hi = capture_box(model, side, model.min_swing)
-        boxes.append((centre + lo, centre + hi))
+        if stays in (None, side):
+            lo, hi = capture_box(model, side, model.min_swing)
+            boxes.append((centre + lo, centre + hi))
     return boxes
 
 
