@@ -207,7 +207,8 @@ def _walk(args: argparse.Namespace) -> int:
     if not 1 <= args.dynfilter_passes <= 10:
         raise ConfigError(f"walk: --dynfilter-passes {args.dynfilter_passes} is outside the allowed range [1, 10]")
     single, double = _step_timing(args, "walk")
-    settings = WalkSettings(stabilize=not args.no_stabilizer, arms=ArmMotion(args.arms),
+    settings = WalkSettings(stabilize=not args.no_stabilizer, recover_pushes=not args.no_push_recovery,
+                            arms=ArmMotion(args.arms),
                             dynfilter=FilterMode(args.dynfilter), dynfilter_passes=args.dynfilter_passes,
                             dynfilter_worker=not args.dynfilter_inline, base_state=_base_state(args),
                             single_support=single, double_support=double)
@@ -655,6 +656,8 @@ def _add_walk(sub, sim) -> None:
     p.add_argument("--lateral", type=float, default=0.0, help="side-step distance [m], + left, - right")
     p.add_argument("--speed", type=float, default=0.25, help="walking speed [m/s], 0.02..0.5")
     p.add_argument("--no-stabilizer", action="store_true", help="open loop: no DCM/ZMP balance feedback")
+    p.add_argument("--no-push-recovery", action="store_true",
+                   help="the plan does not take up a pushed DCM (its footsteps do not follow a push)")
     p.add_argument("--arms", choices=[m.value for m in ArmMotion], default=ArmMotion.NONE.value,
                    help="upper body: half-sitting, or both elbows swinging ±0.5 rad at 1 Hz")
     p.add_argument("--dynfilter", choices=[m.value for m in FilterMode], default=FilterMode.OFF.value,

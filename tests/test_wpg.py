@@ -137,6 +137,25 @@ def test_stop_at_puts_the_feet_on_the_goal():
         np.testing.assert_allclose(gen.feet[side].xy, goal[side].xy, atol=1e-9)
 
 
+def test_a_pushed_plan_moves_a_frozen_landing():
+    """``add_com_velocity`` inside the swing's last ``swing_freeze`` seconds: the plan's CoM
+    velocity takes the change and the MPC moves the landing the MPC alone no longer moves."""
+    plans = [standing_generator(), standing_generator()]
+    for gen in plans:
+        gen.set_velocity(0.2, 0.0, 0.0)
+        for _ in range(13):  # the transfer, then 0.5 s into the first single support (the left foot swings)
+            gen.update()
+    pushed, plain = plans
+    assert plain.phase == "single" and plain.phase_time == pytest.approx(PARAMS.single_support - PARAMS.swing_freeze)
+    before = plain.swing.landing
+    pushed.add_com_velocity(np.array([0.0, 0.3]))  # to the left
+    for gen in plans:
+        gen.update()
+    assert plain.swing.landing == before  # frozen
+    assert pushed.sample(0.0).com_velocity == pytest.approx(plain.sample(0.0).com_velocity + [0.0, 0.3])
+    assert pushed.swing.landing.y > before.y + 0.03 and pushed.swing.landing.x == pytest.approx(before.x, abs=0.02)
+
+
 def test_a_planar_move_turns_about_its_pivot_then_translates():
     move = PlanarMove(np.array([0.0, 1.0]), np.pi / 2, np.array([1.0, 0.0]))
     np.testing.assert_allclose(move.point([2.0, 0.0]), [1.0, 2.0], atol=1e-12)

@@ -25,6 +25,7 @@ import numpy as np
 import pinocchio as pin
 
 from robot_ctrl.control.estimator import StateEstimator
+from robot_ctrl.control.push_recovery import plan_velocity_change
 from robot_ctrl.control.stabilizer import DcmStabilizer
 from robot_ctrl.control.static_feedforward import static_torques, weight_shares
 from robot_ctrl.dynfilter.dynamic_filter import DynamicFilter
@@ -70,14 +71,16 @@ class WalkingController:
                  control_dt: float = 0.005, stabilize: bool = True,
                  upper_body: Callable[[float], np.ndarray] | None = None,
                  dynfilter: FilterMode | str = FilterMode.OFF, dynfilter_passes: int = 2,
-                 dynfilter_worker: bool = False, trunk_weight: float = 1.0, balance_with_arms: bool = True):
+                 dynfilter_worker: bool = False, trunk_weight: float = 1.0, balance_with_arms: bool = True,
+                 recover_pushes: bool = True):
         """``params``: pattern-generator settings; its robot-dependent fields are derived from the
         robot's start posture when not given (:meth:`WalkParams.for_robot`). ``stabilize``: DCM/ZMP
         balance feedback (``DcmStabilizer``). ``upper_body(t)``: posture-task target (joint order, rad)
         at time t, default the half-sitting posture; ``dynfilter``: :class:`FilterMode`, in a worker
         process one WPG sample behind with ``dynfilter_worker`` (``DynamicFilterWorker``). Call
         :meth:`close` when done (it ends the worker). ``trunk_weight``, ``balance_with_arms``: how the
-        IK may use the upper body (``WholeBodyIK``)."""
+        IK may use the upper body (``WholeBodyIK``). ``recover_pushes``: the plan takes up a DCM
+        departure beyond ``push_recovery.DEAD_BAND`` at each sample (:mod:`~robot_ctrl.control.push_recovery`)."""
         dynfilter = FilterMode.parse(dynfilter)
         self.robot = robot
         self.dt = control_dt
@@ -114,6 +117,8 @@ class WalkingController:
         self._hands: dict[str, tuple[np.ndarray, np.ndarray] | None] = {s: None for s in SIDES}
         self._balance_shift = np.zeros(2)
         self._stance: tuple[str, np.ndarray, complex, int] | None = None  # side, sums of sole xy and yaw phasor, ticks
+        self.recover_pushes = recover_pushes
+        self.push_recoveries = 0  # samples at which the plan took up a DCM departure
 
     # Commands ---------------------------------------------------------------------------------
     def on_sample(self, hook: Callable[[PlanSample], None]) -> None:
@@ -202,6 +207,7 @@ class WalkingController:
         t = self.k * self.dt
         if self.sample_due:
             self._follow_the_feet()
+            self._take_up_a_push()
             if self._sample_hooks:
                 sample = self.plan_sample()
                 for hook in self._sample_hooks:
@@ -264,6 +270,18 @@ class WalkingController:
         base = pin.Quaternion(pin.utils.rpyToMatrix(0.0, 0.0, turn) @ pin.Quaternion(q[6], *q[3:6]).matrix())
         q[3:7] = base.coeffs()  # x, y, z, w
         self.ik.set_configuration(q)
+
+    def _take_up_a_push(self) -> None:
+        """The plan's DCM moves to within the dead band of the measured one (``push_recovery``), so
+        that this sample's MPC places the footsteps from where the robot is going."""
+        if not self.recover_pushes or self.estimate is None or self.wpg.phase == "stand":
+            return
+        wpg, omega = self.wpg, self.stabilizer.omega
+        planned = np.array([wpg.com_x[0] + wpg.com_x[1] / omega, wpg.com_y[0] + wpg.com_y[1] / omega])
+        change = plan_velocity_change(self.estimate.dcm(omega), planned, omega)
+        if change is not None:
+            wpg.add_com_velocity(change)
+            self.push_recoveries += 1
 
     def _measure_stance(self, ref: WalkReference) -> None:
         """Add this tick's measured sole of the plan's single stance foot, if it alone touches

@@ -64,7 +64,8 @@ def run_drawer(robot: RobotModel, hw: SafetyLayer, primitives: WalkReachPrimitiv
                                      "dynfilter": task.dynfilter.value} | drawer.report(
         run.metrics.fell, geometry, task.slot, primitives.comfort_distance) | dict(
         zmp_in_support_ratio=walk.zmp_in_support_ratio, footsteps=walk.footsteps, **walk.log.metrics(),
-        dynfilter_fallbacks=controller.filter_fallbacks, push_capture=capture.report()) | run.report(
+        dynfilter_fallbacks=controller.filter_fallbacks, push_recoveries=controller.push_recoveries,
+        push_capture=capture.report()) | run.report(
         result, disturbances)
     report["success"] = report["success"] and done.held(result.states[0].t) >= STAND_AFTER
     log(f"success: {str(report['success']).lower()}  fell: {str(report['fell']).lower()}  steps "

@@ -35,6 +35,7 @@ STAND_AFTER = 2.0  # [s] standing after the stop
 @dataclass(frozen=True)
 class WalkSettings:
     stabilize: bool = True  # DCM/ZMP balance feedback
+    recover_pushes: bool = True  # the plan takes up a pushed DCM (control.push_recovery)
     arms: ArmMotion = ArmMotion.NONE
     dynfilter: FilterMode = FilterMode.OFF
     dynfilter_passes: int = 2
@@ -56,7 +57,7 @@ def run_walk(robot: RobotModel, hw: SafetyLayer, goal: WalkGoal, settings: WalkS
     params = WalkParams(single_support=s.single_support, double_support=s.double_support)
     controller, run = start_run(robot, hw, s.base_state, lambda seen: WalkingController(
         robot, seen, params, dt, s.stabilize, arm_motion(s.arms, robot), s.dynfilter, s.dynfilter_passes,
-        s.dynfilter_worker), pacer, recorders, log)
+        s.dynfilter_worker, recover_pushes=s.recover_pushes), pacer, recorders, log)
     start = base_pose_xy_yaw(run.state.base_pos, run.state.base_quat_xyzw)
     path = PathCommander(controller, goal, start, log)
     foot = robot.config.foot
@@ -71,7 +72,8 @@ def run_walk(robot: RobotModel, hw: SafetyLayer, goal: WalkGoal, settings: WalkS
     filtered = s.dynfilter is not FilterMode.OFF
     report = run.metrics.report() | {"robot": robot.name} | walk.report(result.states[0], goal) | dict(
         stood_s=round(stood.held(result.states[0].t), 3), single_support_s=s.single_support,
-        double_support_s=s.double_support, stabilizer=s.stabilize, arms=s.arms.value,
+        double_support_s=s.double_support, stabilizer=s.stabilize, push_recovery=s.recover_pushes,
+        push_recoveries=controller.push_recoveries, arms=s.arms.value,
         dynfilter=s.dynfilter.value, dynfilter_passes=s.dynfilter_passes if filtered else 0,
         dynfilter_fallbacks=controller.filter_fallbacks, dynfilter_worker=s.dynfilter_worker and filtered,
         push_capture=capture.report()) | run.report(result, disturbances)

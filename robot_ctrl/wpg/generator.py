@@ -10,8 +10,8 @@ footsteps at given positions, taking as many steps as the reach region requires 
 goal pose).
 
 Every sample :meth:`update` solves the MPC from the generator's own planned CoM state
-(the plan is open loop; balance feedback acts on the controller side) and advances the plan by
-one sample. :meth:`sample` interpolates it at any time inside the current sample.
+(balance feedback acts on the controller side, which may move that state: :meth:`shift`,
+:meth:`add_com_velocity`) and advances the plan by one sample. :meth:`sample` interpolates it at any time inside the current sample.
 All positions are in the world frame; the floor is z = 0.
 
 Gait timing can be stretched online: with :meth:`set_time_scale` ``s``, every gait duration of
@@ -120,6 +120,7 @@ class WalkingPatternGenerator:
         self._last_duration = params.sample_time
         self.time_scale = 1.0  # physical / nominal duration of the gait, for the next samples
         self.steps_started = 0  # single-support phases begun so far
+        self._retarget_late = False  # the next update may move the landing inside swing_freeze
         self._sample_state = (self.com_x.copy(), self.com_y.copy(), 0.0, 0.0)
         self._sample_phase = (self.phase, 0.0, self.stance, None, 1.0, 0)
 
@@ -310,6 +311,14 @@ class WalkingPatternGenerator:
             f = self.settle_from
             self.settle_from = FootRef(f.side, f.yaw + move.turn, move.point(f.offset), f.S)
 
+    def add_com_velocity(self, delta: np.ndarray) -> None:
+        """Add ``delta`` (2,) [m/s] (world frame) to the plan's CoM velocity before the next
+        :meth:`update`, which then re-plans the footsteps from it and moves the landing of the swing
+        under way even within its last ``swing_freeze`` seconds (a push leaves no time to wait)."""
+        self.com_x[1] += delta[0]
+        self.com_y[1] += delta[1]
+        self._retarget_late = True
+
     # Stepping ---------------------------------------------------------------------------------
     def update(self) -> MpcSolution:
         """Solve the MPC for the current sample and advance the plan by one sample."""
@@ -325,7 +334,8 @@ class WalkingPatternGenerator:
             sol = self.mpc.solve(prob)
         self.solve_times.append(time.perf_counter() - t0)
         self.solution = sol
-        if self.phase == "single" and self.phase_time < self.p.single_support - self.p.swing_freeze - 1e-9:
+        late, self._retarget_late = self._retarget_late, False
+        if self.phase == "single" and (late or self.phase_time < self.p.single_support - self.p.swing_freeze - 1e-9):
             self.swing.retarget(self.phase_time, Footstep(other(self.stance), *sol.footsteps[:2], self._landing_yaws[0]))
         self._sample_state = (self.com_x.copy(), self.com_y.copy(), float(sol.jerk_x[0]), float(sol.jerk_y[0]))
         self._preview_segments = self._planned_segments
