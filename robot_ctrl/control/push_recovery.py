@@ -1,6 +1,6 @@
 """Push recovery: the walking plan takes up the measured DCM when a push has carried the robot's
-away from it, so that the MPC's automatic footstep placement (Herdt et al. 2010) steps where the
-robot now goes; the MPC restarts from the perturbed state as in Wieber 2006 ("Trajectory free
+DCM away from the plan's, so that the MPC's automatic footstep placement (Herdt et al. 2010) steps
+where the robot now goes; the MPC restarts from the perturbed state as in Wieber 2006 ("Trajectory free
 linear model predictive control for stable walking in the presence of strong perturbations").
 
 Per MPC sample, world frame, ξ = c + ċ/ω the DCM (measured from the estimator, planned from the

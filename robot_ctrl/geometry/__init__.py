@@ -15,5 +15,5 @@ from robot_ctrl.geometry.frames import (
 from robot_ctrl.geometry.minimum_jerk import interpolate, minimum_jerk
 from robot_ctrl.geometry.support_polygon import SupportPolygon, convex_hull, sole_corners
 
-__all__ = ["GRAVITY", "SIDES", "PlanarMove", "SupportPolygon", "base_pose_xy_yaw", "convex_hull", "interpolate", "minimum_jerk",
-           "other", "relative_pose", "rotation", "sole_corners", "wrap_angle", "yaw_of"]
+__all__ = ["GRAVITY", "SIDES", "PlanarMove", "SupportPolygon", "base_pose_xy_yaw", "convex_hull", "interpolate",
+           "minimum_jerk", "other", "relative_pose", "rotation", "sole_corners", "wrap_angle", "yaw_of"]

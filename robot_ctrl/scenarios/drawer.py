@@ -65,8 +65,7 @@ def run_drawer(robot: RobotModel, hw: SafetyLayer, primitives: WalkReachPrimitiv
         run.metrics.fell, geometry, task.slot, primitives.comfort_distance) | dict(
         zmp_in_support_ratio=walk.zmp_in_support_ratio, footsteps=walk.footsteps, **walk.log.metrics(),
         dynfilter_fallbacks=controller.filter_fallbacks, push_recoveries=controller.push_recoveries,
-        push_capture=capture.report()) | run.report(
-        result, disturbances)
+        push_capture=capture.report()) | run.report(result, disturbances)
     report["success"] = report["success"] and done.held(result.states[0].t) >= STAND_AFTER
     log(f"success: {str(report['success']).lower()}  fell: {str(report['fell']).lower()}  steps "
         f"{report['planned_step_lengths_m']} planned, {report['realized_step_lengths_m']} realized [m]  pelvis to "

@@ -11,7 +11,8 @@ goal pose).
 
 Every sample :meth:`update` solves the MPC from the generator's own planned CoM state
 (balance feedback acts on the controller side, which may move that state: :meth:`shift`,
-:meth:`add_com_velocity`) and advances the plan by one sample. :meth:`sample` interpolates it at any time inside the current sample.
+:meth:`add_com_velocity`) and advances the plan by one sample. :meth:`sample` interpolates it at
+any time inside the current sample.
 All positions are in the world frame; the floor is z = 0.
 
 Gait timing can be stretched online: with :meth:`set_time_scale` ``s``, every gait duration of
