@@ -16,6 +16,7 @@ from robot_ctrl.geometry import GRAVITY, SIDES, base_pose_xy_yaw
 from robot_ctrl.geometry.support_polygon import SupportPolygon
 from robot_ctrl.hw.types import JointState
 from robot_ctrl.robot.model import RobotModel, configuration
+from robot_ctrl.wpg.lipm import dcm
 
 
 @dataclass(frozen=True)
@@ -32,7 +33,7 @@ class Estimate:
 
     def dcm(self, omega: float) -> np.ndarray:
         """Divergent component of motion ξ = c + ċ/ω (horizontal) [m]."""
-        return self.com[:2] + self.com_velocity[:2] / omega
+        return dcm(self.com[:2], self.com_velocity[:2], omega)
 
 
 class StateEstimator:

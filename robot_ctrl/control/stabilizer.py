@@ -24,6 +24,7 @@ import numpy as np
 
 from robot_ctrl.control.estimator import Estimate
 from robot_ctrl.geometry import GRAVITY
+from robot_ctrl.wpg.lipm import dcm
 
 
 @dataclass(frozen=True)
@@ -49,7 +50,7 @@ class DcmStabilizer:
         if not self.enabled:
             return self.offset
         g = self.gains
-        xi_ref = com_ref + com_vel_ref / self.omega
+        xi_ref = dcm(com_ref, com_vel_ref, self.omega)
         p_d = zmp_ref + (1.0 + g.dcm_rate / self.omega) * (est.dcm(self.omega) - xi_ref)
         if est.support is not None:
             p_d = _clamp_into(est.support, p_d)

@@ -276,11 +276,10 @@ class WalkingController:
         that this sample's MPC places the footsteps from where the robot is going."""
         if not self.recover_pushes or self.estimate is None or self.wpg.phase == "stand":
             return
-        wpg, omega = self.wpg, self.stabilizer.omega
-        planned = np.array([wpg.com_x[0] + wpg.com_x[1] / omega, wpg.com_y[0] + wpg.com_y[1] / omega])
-        change = plan_velocity_change(self.estimate.dcm(omega), planned, omega)
+        omega = self.stabilizer.omega
+        change = plan_velocity_change(self.estimate.dcm(omega), self.wpg.dcm(), omega)
         if change is not None:
-            wpg.add_com_velocity(change)
+            self.wpg.add_com_velocity(change)
             self.push_recoveries += 1
 
     def _measure_stance(self, ref: WalkReference) -> None:

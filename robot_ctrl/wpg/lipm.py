@@ -59,6 +59,12 @@ def horizon_matrices(T: float, N: int, com_height: float, g: float = GRAVITY) ->
     )
 
 
+def dcm(com: np.ndarray, com_velocity: np.ndarray, omega: float) -> np.ndarray:
+    """Divergent component of motion ``ξ = c + ċ/ω`` [m] of the CoM position ``c`` and velocity
+    ``ċ`` (same frame), ``ω = sqrt(g / h)``."""
+    return np.asarray(com) + np.asarray(com_velocity) / omega
+
+
 def com_at(state: np.ndarray, jerk: float, tau: float) -> np.ndarray:
     """State ``[x, ẋ, ẍ]`` at time ``tau`` into a sample with constant ``jerk``."""
     A, B = transition(tau)
