@@ -23,8 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from robot_ctrl.control.estimator import Estimate
-from robot_ctrl.geometry import GRAVITY
-from robot_ctrl.wpg.lipm import dcm
+from robot_ctrl.wpg.lipm import dcm, natural_frequency
 
 
 @dataclass(frozen=True)
@@ -38,7 +37,7 @@ class StabilizerGains:
 
 class DcmStabilizer:
     def __init__(self, com_height: float, gains: StabilizerGains = StabilizerGains(), enabled: bool = True):
-        self.omega = float(np.sqrt(GRAVITY / com_height))
+        self.omega = natural_frequency(com_height)
         self.gains = gains
         self.enabled = enabled
         self.offset = np.zeros(2)

@@ -31,7 +31,7 @@ import numpy as np
 from robot_ctrl.geometry import GRAVITY, PlanarMove, other, rotation, wrap_angle
 from robot_ctrl.geometry.support_polygon import SupportPolygon
 from robot_ctrl.wpg.footstep import FootRef, Footstep
-from robot_ctrl.wpg.lipm import com_at, dcm
+from robot_ctrl.wpg.lipm import com_at, dcm, natural_frequency
 from robot_ctrl.wpg.mpc import MpcInfeasible, MpcProblem, MpcSolution, Reach, SampleSupport, WalkingMPC
 from robot_ctrl.wpg.params import WalkParams
 from robot_ctrl.wpg.swing import SwingTrajectory
@@ -314,8 +314,8 @@ class WalkingPatternGenerator:
 
     def dcm(self) -> np.ndarray:
         """The plan's DCM (2,) [m] (world frame) at the start of the next sample."""
-        omega = np.sqrt(GRAVITY / self.p.com_height)
-        return dcm(np.array([self.com_x[0], self.com_y[0]]), np.array([self.com_x[1], self.com_y[1]]), omega)
+        return dcm(np.array([self.com_x[0], self.com_y[0]]), np.array([self.com_x[1], self.com_y[1]]),
+                   natural_frequency(self.p.com_height))
 
     def add_com_velocity(self, delta: np.ndarray) -> None:
         """Add ``delta`` (2,) [m/s] (world frame) to the plan's CoM velocity before the next

@@ -59,6 +59,11 @@ def horizon_matrices(T: float, N: int, com_height: float, g: float = GRAVITY) ->
     )
 
 
+def natural_frequency(com_height: float, g: float = GRAVITY) -> float:
+    """``ω = sqrt(g / h)`` [1/s] of the pendulum at constant CoM height ``h`` [m]."""
+    return float(np.sqrt(g / com_height))
+
+
 def dcm(com: np.ndarray, com_velocity: np.ndarray, omega: float) -> np.ndarray:
     """Divergent component of motion ``ξ = c + ċ/ω`` [m] of the CoM position ``c`` and velocity
     ``ċ`` (same frame), ``ω = sqrt(g / h)``."""
