@@ -1,0 +1,157 @@
+"""What every subcommand shares: its options' names in error messages, the range check and the
+value parsers, the parents of the parsers, and the log line that does not tear a progress bar."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import sys
+from pathlib import Path
+
+from robot_ctrl.modes import BaseState
+from robot_ctrl.robot.config import ConfigError, available_robots
+
+#: Settings' names in error messages (from the library's checks), and the options that set them.
+COUPLING_OPTIONS = {"k": "--k", "alpha": "--alpha", "m_d": "--md", "m_z": "--mz", "m_psi": "--mpsi",
+                    "k_sine": "--ksine", "lowpass": "--lowpass"}
+GROUP_OPTIONS = {**COUPLING_OPTIONS, "n": "--robots", "seed": "--seed"}
+DRAWER_OPTIONS = {"slot": "--slot", "distance": "--distance", "goal jump distance": "--goal-jump distance",
+                  "goal jump time": "--goal-jump time"}
+DISTURBANCE_OPTIONS = {"mass_scale": "--mass-scale", "friction_scale": "--friction-scale",
+                       "latency": "--latency-ms: latency", "push time": "--push: push time",
+                       "push angle": "--push: push angle", "push impulse": "--push: push impulse",
+                       "reply_loss": "--reply-loss"}
+
+#: Step timing a user may give [s]: below 0.3 s of single support the swing is too fast for the
+#: servos (peak torque 0.9 of the limit at 0.3 s on the 3 m walk); up to a slow 1.5 s step.
+SINGLE_SUPPORT_RANGE = (0.3, 1.5)
+DOUBLE_SUPPORT_RANGE = (0.1, 1.0)
+
+#: (command, option) → the closed range [lo, hi] its value must lie in, checked by :func:`check_ranges`
+#: before anything runs. Options whose check needs more than a range (step timing, drawer
+#: distances, disturbances) are checked where their values are parsed.
+RANGES: dict[tuple[str, str], tuple[float, float]] = {
+    ("walk", "--dynfilter-passes"): (1, 10),
+    ("robustness", "--jobs"): (1, 64),
+    ("crowd run", "--duration"): (1e-3, 3600.0),
+    ("crowd run", "--runs"): (1, 10000),
+    ("crowd run", "--frequency"): (1e-3, 10.0),
+    ("crowd run", "--speed"): (1e-3, 10.0),
+    ("crowd audit", "--graphs"): (1, 100000),
+    ("crowd audit", "--min-n"): (2, 60),
+    ("crowd audit", "--max-n"): (2, 60),
+    ("crowd audit", "--seed"): (0, 2**32 - 1),
+    ("crowd figure", "--runs"): (1, 1000),
+    ("crowd gait-profile", "--speed"): (0.05, 0.3),
+    ("crowd gait-profile", "--cycles"): (2, 50),
+}
+
+
+def check_ranges(command: str, args: argparse.Namespace) -> None:
+    """Refuse, with one line, the first option of ``command`` outside its range in :data:`RANGES`
+    (NaN is outside every range)."""
+    for (cmd, option), (lo, hi) in RANGES.items():
+        value = getattr(args, option.lstrip("-").replace("-", "_")) if cmd == command else lo
+        if not lo <= value <= hi:
+            raise ConfigError(f"{command}: {option} {value} is outside the allowed range [{lo:g}, {hi:g}]")
+
+
+def time_distance(text: str, option: str):
+    """``TIME:DISTANCE`` ([s]:[m], e.g. ``3:2.4``) as a :class:`~robot_ctrl.synthesis.synthesizer.GoalJump`;
+    the values' own ranges are the task's to check."""
+    from robot_ctrl.synthesis.synthesizer import GoalJump
+
+    try:
+        time, distance = (float(v) for v in text.split(":"))
+    except ValueError:
+        raise ConfigError(f"{option} {text!r} must be TIME:DISTANCE, two numbers [s]:[m], e.g. 3:2.4") from None
+    return GoalJump(time, distance)
+
+
+def named(message: str, options: dict[str, str]) -> str:
+    """``message`` with each setting's name (``m_d = ...``) replaced by its option (``--md = ...``)."""
+    return re.sub(r"\b(" + "|".join(options) + r") = ", lambda m: f"{options[m.group(1)]} = ", message)
+
+
+def log_line(line: str) -> None:
+    """Print a line without tearing the progress bar."""
+    from tqdm import tqdm
+
+    tqdm.write(line)
+
+
+def check_log_path(args: argparse.Namespace) -> None:
+    """Refuse a ``--log`` that cannot be written, before anything runs."""
+    path = getattr(args, "log", None)
+    if path is None:
+        return
+    folder = path.parent if str(path.parent) else Path(".")
+    if path.is_dir():
+        raise ConfigError(f"--log {path} is a folder: give a file name")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError(f"--log {path}: cannot create {folder} ({exc.strerror})") from exc
+    if not os.access(folder, os.W_OK):
+        raise ConfigError(f"--log {path}: {folder} is not writable")
+
+
+def check_outputs(args: argparse.Namespace) -> None:
+    """Refuse a viewer without a display and a video without an offscreen renderer, before anything runs."""
+    check_log_path(args)
+    if args.viewer and sys.platform.startswith("linux") and not (os.environ.get("DISPLAY") or
+                                                                 os.environ.get("WAYLAND_DISPLAY")):
+        raise ConfigError("--viewer needs a display, and neither DISPLAY nor WAYLAND_DISPLAY is set "
+                          "(run without --viewer, or under a desktop or xvfb-run)")
+    if args.video is not None:
+        if args.video.suffix.lower() != ".mp4":
+            raise ConfigError(f"--video {args.video}: the file must end in .mp4")
+        from robot_ctrl.hw.mujoco_video import check_renderer
+
+        try:
+            check_renderer()
+        except RuntimeError as exc:
+            raise ConfigError(str(exc)) from exc
+
+
+def step_timing(args: argparse.Namespace, command: str) -> tuple[float, float]:
+    """``--single-support`` and ``--double-support`` [s]: whole pattern-generator samples (0.1 s)."""
+    from robot_ctrl.wpg.params import WalkParams
+
+    sample = WalkParams.sample_time
+    for option, value, (lo, hi) in (("--single-support", args.single_support, SINGLE_SUPPORT_RANGE),
+                                    ("--double-support", args.double_support, DOUBLE_SUPPORT_RANGE)):
+        if not lo <= value <= hi or abs(value / sample - round(value / sample)) > 1e-9:
+            raise ConfigError(f"{command}: {option} {value} must be a multiple of {sample:g} s in [{lo:g}, {hi:g}] s")
+    return args.single_support, args.double_support
+
+
+def robot_parent() -> argparse.ArgumentParser:
+    parent = argparse.ArgumentParser(add_help=False)
+    parent.add_argument("--robot", default="talos", help=f"robot config name ({', '.join(available_robots())})")
+    return parent
+
+
+def step_timing_args(p) -> None:
+    from robot_ctrl.wpg.params import WalkParams
+
+    p.add_argument("--single-support", type=float, default=WalkParams.single_support,
+                   help="single-support time of each step [s], a multiple of 0.1 in "
+                        f"[{SINGLE_SUPPORT_RANGE[0]:g}, {SINGLE_SUPPORT_RANGE[1]:g}]: shorter steps catch pushes sooner")
+    p.add_argument("--double-support", type=float, default=WalkParams.double_support,
+                   help="double-support time between steps [s], a multiple of 0.1 in "
+                        f"[{DOUBLE_SUPPORT_RANGE[0]:g}, {DOUBLE_SUPPORT_RANGE[1]:g}]")
+
+
+def log_arg(p) -> None:
+    p.add_argument("--log", type=Path, metavar="FILE",
+                   help="write a per-tick binary log (state, command, safety, bus, timing); robot-ctrl log FILE "
+                        "turns it into a report")
+
+
+def base_state_arg(p) -> None:
+    p.add_argument("--base-state", choices=[m.value for m in BaseState],
+                   help="the controller's base pose and velocity: the simulator's (default in simulation), or "
+                        "estimated from the IMU, the encoders and the foot force sensors (control/base_estimator.py; "
+                        "the only one on real servos)")

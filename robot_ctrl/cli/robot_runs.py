@@ -1,0 +1,177 @@
+"""``robot-ctrl balance | walk | drawer | robustness``: the single-robot scenarios and their campaign."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from robot_ctrl.cli.options import (
+    DRAWER_OPTIONS,
+    base_state_arg,
+    check_ranges,
+    log_arg,
+    log_line,
+    named,
+    step_timing,
+    step_timing_args,
+    time_distance,
+)
+from robot_ctrl.cli.simulation import base_state_of, finish, on_the_robot, parse_disturbances, simulation
+from robot_ctrl.modes import ArmMotion, FilterMode
+from robot_ctrl.robot.config import ConfigError
+
+
+def _balance(args: argparse.Namespace) -> int:
+    from robot_ctrl.control.balance_controller import BalanceParams
+    from robot_ctrl.scenarios.balance import run_balance
+
+    base_state = base_state_of(args)
+    robot, disturbances, hardware = simulation(args)
+    with hardware as hw, on_the_robot(args, robot, hw, BalanceParams.control_dt) as (recorders, pacer):
+        report = run_balance(robot, hw, out_dir=args.out, log=log_line, progress=not args.quiet,
+                             disturbances=disturbances, recorders=recorders, base_state=base_state, pacer=pacer)
+    return finish(args, report)
+
+
+def _walk(args: argparse.Namespace) -> int:
+    import math
+
+    from robot_ctrl.control.path_follower import WalkGoal
+    from robot_ctrl.scenarios.walk import WalkSettings, run_walk
+
+    try:
+        goal = WalkGoal(distance=args.distance, turn=math.radians(args.turn_deg), lateral=args.lateral,
+                        speed=args.speed)
+    except ValueError as exc:
+        raise ConfigError(f"walk: {exc}".replace("turn = ", "--turn-deg (in rad) = ")) from exc
+    check_ranges("walk", args)
+    single, double = step_timing(args, "walk")
+    settings = WalkSettings(stabilize=not args.no_stabilizer, recover_pushes=not args.no_push_recovery,
+                            arms=ArmMotion(args.arms),
+                            dynfilter=FilterMode(args.dynfilter), dynfilter_passes=args.dynfilter_passes,
+                            dynfilter_worker=not args.dynfilter_inline, base_state=base_state_of(args),
+                            single_support=single, double_support=double)
+    robot, disturbances, hardware = simulation(args)
+    with hardware as hw, on_the_robot(args, robot, hw, settings.control_dt) as (recorders, pacer):
+        report = run_walk(robot, hw, goal, settings, out_dir=args.out, log=log_line, progress=not args.quiet,
+                          disturbances=disturbances, recorders=recorders, pacer=pacer)
+    return finish(args, report)
+
+
+def _drawer(args: argparse.Namespace) -> int:
+    from robot_ctrl.hw.drawer_cabinet import DrawerPlacement
+    from robot_ctrl.robot.model import load_robot
+    from robot_ctrl.scenarios.drawer import run_drawer
+    from robot_ctrl.scenarios.drawer_task import DrawerTask
+    from robot_ctrl.scenarios.walk_reach_synthesis import load_demonstrations, load_primitives
+
+    jumps = tuple(time_distance(j, "--goal-jump") for j in args.goal_jump)
+    task = DrawerTask(args.distance, args.slot, jumps, FilterMode(args.dynfilter), base_state=base_state_of(args))
+    parse_disturbances(args)
+    robot = load_robot(args.robot)
+    try:  # before anything is learned or started
+        demos = load_demonstrations(robot)
+        task.check(demos.comfort_distance, min(t.lengths[1] for t in demos.trials))
+    except (FileNotFoundError, ValueError) as exc:
+        raise ConfigError(f"drawer: {named(str(exc), DRAWER_OPTIONS)}") from exc
+    primitives = load_primitives(robot)
+    placement = DrawerPlacement(task.distance, task.slot, tuple((j.time, j.distance) for j in jumps))
+    robot, disturbances, hardware = simulation(args, robot, prop=placement)
+    with hardware as hw, on_the_robot(args, robot, hw, task.control_dt) as (recorders, pacer):
+        report = run_drawer(robot, hw, primitives, task, out_dir=args.out, log=log_line, progress=not args.quiet,
+                            disturbances=disturbances, recorders=recorders, pacer=pacer)
+    if args.out is not None:
+        from robot_ctrl.eval.html_report import render_report
+
+        log_line(f"wrote {render_report(args.out)}")
+    return finish(args, report)
+
+
+def _robustness(args: argparse.Namespace) -> int:
+    from robot_ctrl.scenarios import robustness
+
+    check_ranges("robustness", args)
+    single, double = step_timing(args, "robustness")
+    grid = {}
+    if args.quick:  # a smoke test of the campaign: two directions, one phase, two magnitudes
+        grid = dict(directions=(0, -90), phases=("single_mid",), magnitudes=(0.1, 0.2),
+                    mismatch={k: robustness.MISMATCH[k] for k in ("mass ×1.15", "latency 10 ms")})
+    robustness.run_robustness(args.out, args.jobs, log=log_line, progress=not args.quiet, single=single, double=double,
+                              **grid)
+    return 0
+
+
+def add_scenario_parsers(sub, sim) -> None:
+    _add_balance(sub, sim)
+    _add_walk(sub, sim)
+    _add_drawer(sub, sim)
+
+
+def _add_balance(sub, sim) -> None:
+    p = sub.add_parser("balance", parents=[sim], help="stand, shift weight, lift a foot, reach with the right hand",
+                       description="Balance demo at 200 Hz control: half-sitting, CoM over the left foot, right foot "
+                                   "up 5 cm and back, CoM back, right-hand reach to (0.4, -0.2, 0.8) m in the start "
+                                   "floor frame and back. Exit status 1 if the robot fell.")
+    base_state_arg(p)
+    p.add_argument("--out", type=Path, help="write DIR/report.json")
+    log_arg(p)
+    p.set_defaults(run=_balance)
+
+
+def _add_walk(sub, sim) -> None:
+    p = sub.add_parser("walk", parents=[sim], help="walk a path with the MPC walking controller",
+                       description="Walk straight (--distance), along an arc (--distance with --turn-deg) or "
+                                   "sideways (--lateral), stop in double support and stand 2 s. Exit status 1 if "
+                                   "the robot fell.")
+    p.add_argument("--distance", type=float, default=0.0, help="path length forward [m] (arc length when turning)")
+    p.add_argument("--turn-deg", type=float, default=0.0, help="heading change over the path [deg], + left")
+    p.add_argument("--lateral", type=float, default=0.0, help="side-step distance [m], + left, - right")
+    p.add_argument("--speed", type=float, default=0.25, help="walking speed [m/s], 0.02..0.5")
+    p.add_argument("--no-stabilizer", action="store_true", help="open loop: no DCM/ZMP balance feedback")
+    p.add_argument("--no-push-recovery", action="store_true",
+                   help="the plan does not take up a pushed DCM (its footsteps do not follow a push)")
+    p.add_argument("--arms", choices=[m.value for m in ArmMotion], default=ArmMotion.NONE.value,
+                   help="upper body: half-sitting, or both elbows swinging ±0.5 rad at 1 Hz")
+    p.add_argument("--dynfilter", choices=[m.value for m in FilterMode], default=FilterMode.OFF.value,
+                   help="dynamic filter: off, legs only (upper body frozen in its preview) or full body")
+    p.add_argument("--dynfilter-passes", type=int, default=2, help="filter passes per WPG sample (1..10)")
+    p.add_argument("--dynfilter-inline", action="store_true",
+                   help="run the filter in the control loop, its correction applied in the sample it was "
+                        "computed for (default: in a worker process on another core, one 0.1 s sample behind)")
+    step_timing_args(p)
+    base_state_arg(p)
+    p.add_argument("--out", type=Path, help="write DIR/report.json and DIR/timeseries.npz")
+    log_arg(p)
+    p.set_defaults(run=_walk)
+
+
+def _add_drawer(sub, sim) -> None:
+    p = sub.add_parser("drawer", parents=[sim], help="walk to a drawer, pull it open, reach the object (headline task)",
+                       description="The walk-and-reach task in MuJoCo: the learned synthesis drives the MPC walking "
+                                   "controller to a chest of drawers at --distance, the left hand pulls the drawer "
+                                   "open and the right hand reaches the object in --slot; report.json says whether "
+                                   "every criterion was met (success). Exit status 1 if the robot fell.")
+    p.add_argument("--distance", type=float, default=2.0, help="drawer front panel from the start pelvis [m]")
+    p.add_argument("--slot", default="front_left", help="object slot: front_left, front_right, back_left, back_right")
+    p.add_argument("--goal-jump", action="append", default=[], metavar="TIME:DISTANCE",
+                   help="at TIME [s] the cabinet moves to DISTANCE [m]; the synthesis replans (repeatable)")
+    p.add_argument("--dynfilter", choices=[m.value for m in FilterMode], default=FilterMode.FULL.value,
+                   help="dynamic filter: off, legs only, or full body (default)")
+    base_state_arg(p)
+    p.add_argument("--out", type=Path, help="write DIR/report.json, DIR/timeseries.npz and DIR/report.html")
+    log_arg(p)
+    p.set_defaults(run=_drawer)
+
+
+def add_robustness_parser(sub) -> None:
+    p = sub.add_parser("robustness", help="campaign of pushed and mismatched walks (MuJoCo, in parallel)",
+                       description="The 3 m walk at 0.25 m/s pushed in 8 directions at 4 gait phases with growing "
+                                   "impulses (0.1..0.5 N·s/kg) until it falls, and under mass, friction and latency "
+                                   "mismatch; writes DIR/robustness.json and DIR/robustness.html, and each walk's "
+                                   "report under DIR.")
+    p.add_argument("--out", type=Path, default=Path("runs/robustness"), help="output folder")
+    p.add_argument("--jobs", type=int, default=2, help="walks run at a time, 1..64")
+    p.add_argument("--quick", action="store_true", help="a small grid (2 directions, 1 phase, 2 magnitudes)")
+    step_timing_args(p)
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(run=_robustness)
