@@ -37,7 +37,7 @@ def main() -> None:
 
     Synthesizer.step = timed
     task = DrawerTask(distance, "front_left", dynfilter=FilterMode.FULL)
-    with open_hardware("mujoco", robot, drawer=DrawerPlacement(distance, "front_left")) as hw:
+    with open_hardware("mujoco", robot, prop=DrawerPlacement(distance, "front_left")) as hw:
         report = run_drawer(robot, hw, primitives, task, log=lambda line: None)
     Synthesizer.step = step
     us = np.array(ticks) * 1e6

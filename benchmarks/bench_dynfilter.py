@@ -17,6 +17,7 @@ import time
 import numpy as np
 
 from robot_ctrl.control.path_follower import WalkGoal
+from robot_ctrl.control.walking_controller import WalkingOptions
 from robot_ctrl.dynfilter import dynamic_filter as df
 from robot_ctrl.hw.hardware import open_hardware
 from robot_ctrl.modes import ArmMotion, FilterMode
@@ -43,8 +44,9 @@ def main() -> None:
     try:
         for name, (mode, worker) in runs.items():
             with open_hardware("mujoco", robot) as hw:
-                settings = WalkSettings(arms=ArmMotion.SWING, dynfilter=FilterMode(mode),
-                                        dynfilter_passes=args.passes, dynfilter_worker=worker)
+                options = WalkingOptions(dynfilter=FilterMode(mode), dynfilter_passes=args.passes,
+                                         dynfilter_worker=worker)
+                settings = WalkSettings(options, arms=ArmMotion.SWING)
                 results[name] = run_walk(robot, hw, WalkGoal(distance=2.0, speed=0.25), settings, log=lambda _: None)
     finally:
         df.DynamicFilter.refine = original

@@ -175,4 +175,4 @@ def test_the_audit_command(capsys):
     assert all(row[-1] == "0" for row in rows.values())  # no optimistic certificate
     assert rows["step_frequency"][2] == rows["step_frequency"][1] and float(rows["step_frequency"][3]) == 1.0
     assert main(["crowd", "audit", "--graphs", "0"]) == 2
-    assert "--graphs 0 must be in [1, 100000]" in capsys.readouterr().err
+    assert "--graphs 0 is outside the allowed range [1, 100000]" in capsys.readouterr().err

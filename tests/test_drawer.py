@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from robot_ctrl.cli import main
-from robot_ctrl.geometry.drawer import DrawerGeometry
+from robot_ctrl.geometry.drawer import DRAWER_READINGS, DrawerGeometry
 from robot_ctrl.hw.drawer_cabinet import DrawerPlacement
 from robot_ctrl.hw.mujoco_backend import MujocoBackend
-from robot_ctrl.hw.types import SCENE_FIELDS, JointCommand
+from robot_ctrl.hw.types import JointCommand
 
 
 def test_drawer_task_end_to_end(tmp_path):
@@ -51,7 +51,7 @@ def test_drawer_takes_a_real_force_to_open(talos):
     """Pulling the drawer with the grasp welded: the force the hand needs is the runners' friction
     (plus damping), measured through the weld's constraint force."""
     geometry = DrawerGeometry()
-    backend = MujocoBackend(talos, drawer=DrawerPlacement(1.2, "front_left"))
+    backend = MujocoBackend(talos, prop=DrawerPlacement(1.2, "front_left"))
     backend.configure()
     backend.activate()
     m, d, cabinet = backend.m, backend.d, backend.cabinet
@@ -62,7 +62,7 @@ def test_drawer_takes_a_real_force_to_open(talos):
     mujoco.mj_forward(m, d)
     command = JointCommand(state.q, np.zeros(talos.nj), talos.kp, talos.kd, np.zeros(talos.nj))
     backend.write(command)
-    scene = dict(zip(SCENE_FIELDS, backend.read().scene))
+    scene = dict(zip(DRAWER_READINGS, backend.read().scene))
     assert scene["grasped"] == 1.0 and scene["left_hand_to_handle_m"] < 1e-3
     # Move the cabinet 10 cm away: the hand holds the drawer, so it slides out (the arm gives a
     # little under the load); the force on it is the runners' dry friction and damping.
@@ -70,8 +70,8 @@ def test_drawer_takes_a_real_force_to_open(talos):
     for _ in range(40):
         d.mocap_pos[cabinet.mocap][0] += 0.1 / 40
         backend.write(command)
-        forces.append(dict(zip(SCENE_FIELDS, backend.read().scene))["drawer_pull_force_n"])
-    scene = dict(zip(SCENE_FIELDS, backend.read().scene))
+        forces.append(dict(zip(DRAWER_READINGS, backend.read().scene))["drawer_pull_force_n"])
+    scene = dict(zip(DRAWER_READINGS, backend.read().scene))
     assert 0.05 < scene["drawer_opening_m"] < 0.1
     assert geometry.slide_friction * 0.9 < np.median(forces) < geometry.slide_friction * 3, forces
     backend.close()

@@ -61,12 +61,12 @@ def test_filter_passes_reduce_the_zmp_error_of_a_recorded_plan(talos):
         state = hw.read()
     hw.close()
     dynfilter = DynamicFilter(talos, controller.params.horizon, controller.params.com_height, "full", passes=3)
-    dynfilter.update(controller.wpg, controller.ik.q, controller.com_z, controller.sole_height, controller.upper_body,
-                     controller.wpg.sample_start)
+    dynfilter.update(controller.wpg.preview(), controller.ik.q, controller.com_z, controller.sole_height,
+                     controller.upper_body)
     first, *_, last = dynfilter.pass_rms
     assert first > 0.005  # the cart-table plan is off by centimetres for the multibody robot
     assert last < 0.5 * first
-    offset, _ = dynfilter.offset(0.0)
+    offset = dynfilter.offset(0.0).position
     assert np.all(np.abs(offset) < 0.05)
 
 
@@ -92,8 +92,7 @@ def test_worker_applies_the_in_process_filter_chain_one_sample_later(talos):
         for k in range(12):
             wpg.set_velocity(0.25, 0.0, 0.0)
             wpg.update()
-            args = (wpg, controller.ik.q, controller.com_z, controller.sole_height, controller.upper_body,
-                    wpg.sample_start)
+            args = (wpg.preview(), controller.ik.q, controller.com_z, controller.sole_height, controller.upper_body)
             began = time.perf_counter()
             worker.update(*args)
             if k == 4:  # the worker falls behind: stopped for 0.5 s with this request in hand
@@ -104,9 +103,10 @@ def test_worker_applies_the_in_process_filter_chain_one_sample_later(talos):
                 resume.join()
                 assert time.perf_counter() - began > 0.1  # the next update waited for the late result
             if expected is None:
-                np.testing.assert_array_equal(worker.offset(0.05)[0], np.zeros(2))  # nothing back yet
+                np.testing.assert_array_equal(worker.offset(0.05).position, np.zeros(2))  # nothing back yet
             else:
-                np.testing.assert_allclose(worker.offset(0.05), expected, rtol=0, atol=1e-12)
+                offset = worker.offset(0.05)
+                np.testing.assert_allclose([offset.position, offset.velocity], expected, rtol=0, atol=1e-12)
                 assert worker.pass_rms == inline.pass_rms
             inline.update(*args)
             carried = PreviewCorrection(p.horizon, p.com_height)
@@ -122,8 +122,8 @@ def test_a_stopped_worker_is_reported(talos):
     controller = standing_controller(talos)
     wpg, p = controller.wpg, controller.params
     worker = DynamicFilterWorker(talos, p.horizon, p.com_height, "full", passes=1)
-    args = (wpg, controller.ik.q, controller.com_z, controller.sole_height, controller.upper_body, 0.0)
     wpg.update()
+    args = (wpg.preview(), controller.ik.q, controller.com_z, controller.sole_height, controller.upper_body)
     worker.update(*args)
     worker._process.kill()
     worker._process.join()
@@ -173,6 +173,7 @@ def test_the_guard_refuses_a_diverging_update_and_returns_smoothly_to_the_plan(t
     from dataclasses import replace
 
     from robot_ctrl.dynfilter.dynamic_filter import MAX_OFFSET, filter_request
+    from robot_ctrl.modes import FilterMode
 
     controller = standing_controller(talos)
     wpg, p = controller.wpg, controller.params
@@ -180,16 +181,17 @@ def test_the_guard_refuses_a_diverging_update_and_returns_smoothly_to_the_plan(t
     for _ in range(6):  # a sound plan first: some offset to return from
         wpg.set_velocity(0.25, 0.0, 0.0)
         wpg.update()
-        dynfilter.update(wpg, controller.ik.q, controller.com_z, controller.sole_height, controller.upper_body, 0.0)
+        dynfilter.update(wpg.preview(), controller.ik.q, controller.com_z, controller.sole_height, controller.upper_body)
     assert dynfilter.fallbacks == 0
     wpg.update()
-    request = filter_request("full", wpg, controller.ik.q, controller.com_z, controller.sole_height,
-                             controller.upper_body, 0.0)
-    far = replace(request, preview=[replace(s, com=s.com + [0.4, 0.0]) for s in request.preview])
-    before = dynfilter.correction.offsets(request.sample_duration)[1]  # sample 1 is the next sample's start
+    request = filter_request(FilterMode.FULL, wpg.preview(), controller.ik.q, controller.com_z, controller.sole_height,
+                             controller.upper_body)
+    plan = request.plan
+    far = replace(request, plan=replace(plan, samples=tuple(replace(s, com=s.com + [0.4, 0.0]) for s in plan.samples)))
+    before = dynfilter.correction.offsets(plan.sample_duration)[1]  # sample 1 is the next sample's start
     dynfilter.refine(far)
     assert dynfilter.fallbacks == 1 and dynfilter.pass_rms[0] > 0.06
-    offsets = dynfilter.correction.offsets(request.sample_duration)
+    offsets = dynfilter.correction.offsets(plan.sample_duration)
     np.testing.assert_allclose(offsets[0], before, atol=1e-12)  # carried on, no jump
     assert np.abs(offsets).max() <= MAX_OFFSET and np.abs(offsets[-1]).max() < np.abs(offsets[0]).max() + 1e-6
 
@@ -202,7 +204,7 @@ def test_the_preview_walks_its_unplanned_swing_foot_ahead(talos):
     for _ in range(30):
         wpg.set_velocity(0.5, 0.0, 0.0)
         wpg.update()
-    preview = wpg.preview()
+    preview = wpg.preview().samples
     com_x = preview[-1].com[0]
-    rear = min(f[0][0] for f in preview[-1].feet.values())
+    rear = min(f.position[0] for f in preview[-1].feet.values())
     assert com_x - rear < 0.35  # the legs keep up with the CoM (it was 0.52 m with the foot left behind)

@@ -50,7 +50,7 @@ def test_constraints_hold_over_random_references():
         prob = gen.problem()
         gen.update()
         sol = gen.solution
-        for j, sample in enumerate(gen.preview()[1:]):  # the polygons rebuilt from the planned feet
+        for j, sample in enumerate(gen.preview().samples[1:]):  # the polygons rebuilt from the planned feet
             assert zmp_in_support(sol.zmp[j], sample), (k, j, sol.zmp[j], sample)
         for reach in prob.reach:
             step = Footstep("left" if reach.box[2] > 0 else "right", *sol.footsteps[2 * reach.index: 2 * reach.index + 2],
@@ -78,9 +78,9 @@ def zmp_in_support(zmp, sample, params=PARAMS):
     half = np.array([params.foot_length, params.foot_width]) / 2 - params.zmp_margin
     feet = list(sample.feet.values())
     if sample.single_support:
-        down = [(p, yaw) for p, yaw in feet if p[2] < 1e-9]
-        return any(np.all(np.abs(rotation(yaw).T @ (zmp - p[:2])) <= half + 1e-6) for p, yaw in down)
-    corners = [p[:2] + rotation(yaw) @ (half * [sx, sy]) for p, yaw in feet for sx in (-1, 1) for sy in (-1, 1)]
+        down = [f for f in feet if f.position[2] < 1e-9]
+        return any(np.all(np.abs(rotation(f.yaw).T @ (zmp - f.position[:2])) <= half + 1e-6) for f in down)
+    corners = [f.position[:2] + rotation(f.yaw) @ (half * [sx, sy]) for f in feet for sx in (-1, 1) for sy in (-1, 1)]
     hull = ConvexHull(np.array(corners))
     return bool(np.all(hull.equations[:, :2] @ zmp + hull.equations[:, 2] <= 1e-6))
 
@@ -208,10 +208,10 @@ def test_a_shifted_plan_is_the_same_plan_moved(turn):
             np.testing.assert_allclose(b.com_velocity, R @ a.com_velocity, atol=1e-7)
             np.testing.assert_allclose(b.zmp, pivot + R @ (a.zmp - pivot) + delta, atol=1e-7)
             for side in ("left", "right"):
-                np.testing.assert_allclose(b.foot_position[side][:2],
-                                           pivot + R @ (a.foot_position[side][:2] - pivot) + delta, atol=1e-7)
-                np.testing.assert_allclose(b.foot_position[side][2], a.foot_position[side][2], atol=1e-12)
-                assert b.foot_yaw[side] == pytest.approx(a.foot_yaw[side] + turn, abs=1e-9)
+                np.testing.assert_allclose(b.feet[side].position[:2],
+                                           pivot + R @ (a.feet[side].position[:2] - pivot) + delta, atol=1e-7)
+                np.testing.assert_allclose(b.feet[side].position[2], a.feet[side].position[2], atol=1e-12)
+                assert b.feet[side].yaw == pytest.approx(a.feet[side].yaw + turn, abs=1e-9)
 
 
 @pytest.mark.parametrize("field,value", [("horizon", 1), ("single_support", 0.75), ("zmp_margin", 0.1),

@@ -37,7 +37,9 @@ def _walk(args: argparse.Namespace) -> int:
     import math
 
     from robot_ctrl.control.path_follower import WalkGoal
+    from robot_ctrl.control.walking_controller import WalkingOptions
     from robot_ctrl.scenarios.walk import WalkSettings, run_walk
+    from robot_ctrl.wpg.params import WalkParams
 
     try:
         goal = WalkGoal(distance=args.distance, turn=math.radians(args.turn_deg), lateral=args.lateral,
@@ -46,13 +48,13 @@ def _walk(args: argparse.Namespace) -> int:
         raise ConfigError(f"walk: {exc}".replace("turn = ", "--turn-deg (in rad) = ")) from exc
     check_ranges("walk", args)
     single, double = step_timing(args, "walk")
-    settings = WalkSettings(stabilize=not args.no_stabilizer, recover_pushes=not args.no_push_recovery,
-                            arms=ArmMotion(args.arms),
-                            dynfilter=FilterMode(args.dynfilter), dynfilter_passes=args.dynfilter_passes,
-                            dynfilter_worker=not args.dynfilter_inline, base_state=base_state_of(args),
-                            single_support=single, double_support=double)
+    options = WalkingOptions(params=WalkParams(single_support=single, double_support=double),
+                             stabilize=not args.no_stabilizer, recover_pushes=not args.no_push_recovery,
+                             dynfilter=FilterMode(args.dynfilter), dynfilter_passes=args.dynfilter_passes,
+                             dynfilter_worker=not args.dynfilter_inline)
+    settings = WalkSettings(options, arms=ArmMotion(args.arms), base_state=base_state_of(args))
     robot, disturbances, hardware = simulation(args)
-    with hardware as hw, on_the_robot(args, robot, hw, settings.control_dt) as (recorders, pacer):
+    with hardware as hw, on_the_robot(args, robot, hw, options.control_dt) as (recorders, pacer):
         report = run_walk(robot, hw, goal, settings, out_dir=args.out, log=log_line, progress=not args.quiet,
                           disturbances=disturbances, recorders=recorders, pacer=pacer)
     return finish(args, report)

@@ -69,7 +69,7 @@ def simulation(args: argparse.Namespace, robot=None, prop=None):
     try:
         return robot, disturbances, open_hardware(args.hw, robot, args.bus_config, viewer=args.viewer,
                                                   video=args.video, disturbances=disturbances,
-                                                  drawer=prop)
+                                                  prop=prop)
     except (FileNotFoundError, ValueError) as exc:
         raise ConfigError(f"--hw {args.hw}: {exc}") from exc
 

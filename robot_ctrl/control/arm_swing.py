@@ -20,7 +20,10 @@ from robot_ctrl.modes import ArmMotion
 from robot_ctrl.robot.model import RobotModel
 from robot_ctrl.sot.joint_limits import JointLimits
 
-DEFAULT_JOINTS = ("arm_left_4_joint", "arm_right_4_joint")
+
+def elbows(robot: RobotModel) -> tuple[str, str]:
+    """The joints ``--arms swing`` swings: the elbows the robot config names (``joints.elbows``)."""
+    return tuple(robot.config.joint_roles["elbows"][s] for s in ("left", "right"))
 
 
 def arm_motion(kind: ArmMotion | str, robot: RobotModel) -> Callable[[float], np.ndarray] | None:
@@ -28,7 +31,7 @@ def arm_motion(kind: ArmMotion | str, robot: RobotModel) -> Callable[[float], np
     if ArmMotion.parse(kind) is ArmMotion.NONE:
         return None
     limits = JointLimits.from_robot(robot)
-    return ArmSwing.for_joints(DEFAULT_JOINTS, robot.joint_names,
+    return ArmSwing.for_joints(elbows(robot), robot.joint_names,
                                np.clip(robot.config.half_sitting, limits.q_min, limits.q_max),
                                limits.q_min, limits.q_max)
 

@@ -43,7 +43,7 @@ class DrawerHands:
         """``controller``: the :class:`~robot_ctrl.control.walking_controller.WalkingController`."""
         self.controller, self.targets, self.body = controller, targets, body
         robot = controller.robot
-        self._gripper = list(robot.joint_names).index("gripper_left_joint")
+        self._gripper = robot.config.joint_index("grippers", "left")  # the left hand pulls
         self._closed = float(robot.upper[self._gripper]) - robot.config.position_margin
         self._bias = {s: np.zeros(3) for s in SIDES}
         self._last: dict[str, np.ndarray] = {}  # each hand's last target, or the IK's hand while free
@@ -90,7 +90,7 @@ class DrawerHands:
         if self._closing_since is not None:
             opened *= 1.0 - minimum_jerk(t - self._closing_since, GRIPPER_CLOSE_TIME)[0]
         posture[self._gripper] = self._closed - GRIPPER_OPEN * opened
-        relative = self.body.hands_from_pelvis(upper_q, c.ik.q, targets.start[2])["left"]
+        relative = self.body.hands_from_pelvis(upper_q, c.reference_configuration(), targets.start[2])["left"]
         if not self.holding:
             gripper = c.estimate.configuration[c.robot.q_index[self._gripper]]
             if self._closing_since is None or gripper < self._closed - GRIPPER_CLOSED or near > GRASP_DISTANCE:
@@ -100,7 +100,7 @@ class DrawerHands:
             self.holding = True
             self.grasp_hand = c.estimate.hands["left"].copy()
             self._grasp_relative = relative
-            end = self.body.hands_from_pelvis(final_upper(), c.ik.q, targets.start[2])["left"]
+            end = self.body.hands_from_pelvis(final_upper(), c.reference_configuration(), targets.start[2])["left"]
             self._pull_total = float(targets.forward @ (relative - end))
         # The synthesized pull's timing (relative to the pelvis: the base's own sway must not pull
         # the drawer), to the task's opening.
@@ -118,9 +118,9 @@ class DrawerHands:
             self._path_offset.pop(side, None)
             return None
         c = self.controller
-        synthesized = self.body.hands(upper_q, c.ik.q)[side]
+        synthesized = self.body.hands(upper_q, c.reference_configuration())[side]
         if side not in self._path_offset:
-            self._path_offset[side] = c.ik.pose(f"{side}_hand").translation - synthesized
+            self._path_offset[side] = c.reference_hand(side) - synthesized
         return (1 - s) * (synthesized + self._path_offset[side]) + s * target
 
     def _free(self, side: str, target: np.ndarray | None) -> None:
@@ -130,7 +130,7 @@ class DrawerHands:
             self._bias[side][:] = 0.0
             self._command(side, None)
             return
-        error = c.estimate.hands[side] - c.ik.pose(f"{side}_hand").translation
+        error = c.estimate.hands[side] - c.reference_hand(side)
         bias = self._bias[side] + (error - self._bias[side]) * min(1.0, c.dt / HAND_BIAS_TIME)
         self._bias[side] = bias * min(1.0, MAX_HAND_BIAS / max(float(np.linalg.norm(bias)), 1e-9))
         self._command(side, target - self._bias[side])
@@ -142,7 +142,7 @@ class DrawerHands:
         c = self.controller
         last = self._last.get(side)
         if target is None:
-            self._last[side] = c.ik.pose(f"{side}_hand").translation
+            self._last[side] = c.reference_hand(side)
             c.set_hand_target(side, None)
             return
         velocity = np.zeros(3) if last is None else (target - last) / c.dt

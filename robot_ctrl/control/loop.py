@@ -86,7 +86,7 @@ class LoopResult:
 
 
 class ControlLoop:
-    def __init__(self, hardware: Sequence[HardwareAdapter], controllers: Sequence[Controller], dt: float,
+    def __init__(self, hardware: Sequence[HardwareAdapter], controllers: Sequence[Controller], dt: float, *,
                  commanders: Sequence[Commander] = (), recorders: Sequence[Recorder] = (),
                  stops: Sequence[StopCondition] = (), pacer: Pacer | None = None):
         if len(hardware) != len(controllers) or not hardware:

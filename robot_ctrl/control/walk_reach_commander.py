@@ -38,6 +38,7 @@ from robot_ctrl.control.synthesized_body import SynthesizedBody
 from robot_ctrl.control.walking_controller import PlanSample, WalkingController
 from robot_ctrl.geometry import SIDES, minimum_jerk, rotation
 from robot_ctrl.synthesis.primitives import WalkReachPrimitives
+from robot_ctrl.synthesis.step_planning import Action
 from robot_ctrl.synthesis.synthesizer import SynthesisPreview, Synthesizer, WalkReachGoal
 from robot_ctrl.wpg.footstep import Footstep
 
@@ -62,7 +63,7 @@ class WalkReachCommander:
         self.body = SynthesizedBody(controller.robot)
         self.hands = DrawerHands(controller, targets, self.body)
         self.heading = rotation(targets.start[2])
-        self.base_posture = controller.ik.posture.target.copy()
+        self.base_posture = controller.start_posture.copy()
         self._posture_now = self.base_posture.copy()
         self._preview: SynthesisPreview | None = None
         self._preview_t = 0.0
@@ -71,11 +72,11 @@ class WalkReachCommander:
         self.synth_start_advance = 0.0  # measured pelvis advance when the synthesis started [m]
         self.output = None  # the synthesizer's last output of a running sequence
         self.stopping_at: float | None = None  # the pelvis advance the controller was told to stop at [m]
-        self.boundaries: list[tuple[float, int]] = []  # (time [s], action; 0: the end) at each action start
+        self.boundaries: list[tuple[float, Action]] = []  # (time [s], action) at each action start, ENDED at the end
         self._stance_shift = 0.0  # [m] the stop stance ahead of the pelvis's target (:meth:`_stop`)
         self._lean_integral = 0.0  # [m]
         self.t = 0.0
-        self._com_from_pelvis = controller.ik.com_position()[:2] - controller.ik.q[:2]  # world axes
+        self._com_from_pelvis = controller.reference_com()[:2] - controller.reference_configuration()[:2]  # world axes
         self._com_offset = float(self._com_from_pelvis @ self.heading[:, 0])
         # Walk off at the first action's mean speed until the synthesis starts; meanwhile the upper
         # body blends to the synthesis's first posture.
@@ -134,7 +135,7 @@ class WalkReachCommander:
             index = self.synth.action_index
             output = self.synth.step(self.controller.dt * self._synthesis_rate(), self._goal(t))
             if self.synth.finished:
-                self.boundaries.append((t, 0))
+                self.boundaries.append((t, Action.ENDED))
             else:
                 self.output = output
                 if self.synth.action_index != index:
@@ -143,7 +144,7 @@ class WalkReachCommander:
         upper = self.output.upper_body_q
         self._posture_now = self.base_posture.copy()
         self._posture_now[self.body.upper] = upper
-        if self.output.action == 3:
+        if self.output.action is Action.STAND:
             self.hands.stand(t, share, upper, self._posture_now, self._final_upper)
         elif self._last_short:
             self.hands.reach(t, share, upper, self._posture_now, self._final_upper)
@@ -161,7 +162,7 @@ class WalkReachCommander:
 
     @property
     def _last_short(self) -> bool:
-        return self.synth.plan[self.synth.action_index].action == 2 and \
+        return self.synth.plan[self.synth.action_index].action is Action.SHORT and \
             self.synth.action_index == len(self.synth.plan) - 2
 
     def _final_upper(self) -> np.ndarray:
@@ -178,10 +179,10 @@ class WalkReachCommander:
         c = self.controller
         if self.stopping_at is None:
             return
-        s = 1.0 if self.output.action == 3 else minimum_jerk(share, 0.5)[0]
+        s = 1.0 if self.output.action is Action.STAND else minimum_jerk(share, 0.5)[0]
         forward = self.targets.forward[:2]
-        arms = c.ik.com_position()[:2] - c.ik.q[:2] - self._com_from_pelvis - forward * self._stance_shift
-        if self.output.action == 3:
+        arms = c.reference_com()[:2] - c.reference_configuration()[:2] - self._com_from_pelvis - forward * self._stance_shift
+        if self.output.action is Action.STAND:
             self._lean_integral += PELVIS_GAIN * c.dt * (self.stopping_at - self.advance())
         c.shift_balance(s * arms + self._lean_integral * forward)
 
@@ -197,7 +198,7 @@ class WalkReachCommander:
         plan = self.synth.plan[self.synth.action_index]
         self._preview = self.synth.preview(c.params.horizon * c.params.sample_time, PREVIEW_DT)
         self._preview_t = sample.t
-        if plan.action == 3:
+        if plan.action is Action.STAND:
             return
         c.set_time_scale(float(np.clip(plan.duration / (2 * c.params.step_period), 0.5, 2.0)))
         if self._last_short:
@@ -218,7 +219,7 @@ class WalkReachCommander:
         forward of the pelvis (the arms go out); the stance is put forward by ``STANCE_SHARE`` of that
         shift at the end of the sequence, so the lean that keeps the pelvis in place stays small."""
         c = self.controller
-        final = self.body.com_from_pelvis(self._final_upper(), c.ik.q) - self._com_from_pelvis
+        final = self.body.com_from_pelvis(self._final_upper(), c.reference_configuration()) - self._com_from_pelvis
         forward = self.targets.forward[:2]
         self._stance_shift = float(np.clip(final @ forward * STANCE_SHARE, 0.0, MAX_STANCE_SHIFT))
         self.stopping_at = target

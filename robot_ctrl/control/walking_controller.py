@@ -18,7 +18,7 @@ difference, docs/walking.md gives the measured one.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
@@ -30,14 +30,15 @@ from robot_ctrl.control.stabilizer import DcmStabilizer
 from robot_ctrl.control.static_feedforward import static_torques, weight_shares
 from robot_ctrl.dynfilter.dynamic_filter import DynamicFilter
 from robot_ctrl.dynfilter.filter_worker import DynamicFilterWorker
-from robot_ctrl.geometry import SIDES, PlanarMove, other, wrap_angle, yaw_of
+from robot_ctrl.geometry import SIDES, PlanarMove, mean_yaw, other, wrap_angle, yaw_of
 from robot_ctrl.hw.types import JointCommand, JointState
 from robot_ctrl.modes import FilterMode
 from robot_ctrl.robot.model import RobotModel, configuration
 from robot_ctrl.sot.whole_body_ik import WholeBodyIK
 from robot_ctrl.wpg.footstep import Footstep
-from robot_ctrl.wpg.generator import WalkingPatternGenerator, WalkReference
+from robot_ctrl.wpg.generator import WalkingPatternGenerator
 from robot_ctrl.wpg.params import WalkParams
+from robot_ctrl.wpg.plan import Touchdown, WalkReference
 
 MAX_BALANCE_SHIFT = 0.04  # [m] of :meth:`WalkingController.shift_balance`, well inside a sole
 MAX_FOOT_FOLLOW = 0.05  # [m] per sample: a larger gap (a push, a slipping foot) is closed over several samples
@@ -48,6 +49,63 @@ MIN_STANCE_TICKS = 5  # measurements of a stance foot needed to follow it
 
 def sole_footstep(side: str, pose: pin.SE3) -> Footstep:
     return Footstep(side, float(pose.translation[0]), float(pose.translation[1]), yaw_of(pose.rotation))
+
+
+@dataclass(frozen=True)
+class WalkingOptions:
+    """How a :class:`WalkingController` walks (placo's ``HumanoidParameters``, for this pipeline).
+
+    ``params``: pattern-generator settings (step timing, MPC weights; None: the defaults), whose
+    robot-dependent fields are derived from the robot's start posture (:meth:`WalkParams.for_robot`);
+    ``control_dt`` [s]: the control period; ``stabilize``: DCM/ZMP balance feedback
+    (``DcmStabilizer``); ``recover_pushes``: the plan takes up a DCM departure beyond
+    ``push_recovery.DEAD_BAND`` at each sample (:mod:`~robot_ctrl.control.push_recovery`);
+    ``dynfilter``: the dynamic filter's :class:`FilterMode`, with ``dynfilter_passes`` per sample, in
+    a worker process one WPG sample behind with ``dynfilter_worker`` (``DynamicFilterWorker``);
+    ``trunk_weight``, ``balance_with_arms``: how the IK may use the upper body (``WholeBodyIK``)."""
+
+    params: WalkParams | None = None
+    control_dt: float = 0.005
+    stabilize: bool = True
+    recover_pushes: bool = True
+    dynfilter: FilterMode = FilterMode.OFF
+    dynfilter_passes: int = 2
+    dynfilter_worker: bool = False
+    trunk_weight: float = 1.0
+    balance_with_arms: bool = True
+
+    @property
+    def walk_params(self) -> WalkParams:
+        """``params``, or the defaults."""
+        return WalkParams() if self.params is None else self.params
+
+
+@dataclass(frozen=True)
+class PreparedTick:
+    """What :meth:`WalkingController.prepare` leaves for :meth:`~WalkingController.step`: the plan at
+    the tick, the CoM target before the stabilizer's correction (world frame) and the torque
+    feedforward (Pinocchio velocity order)."""
+
+    reference: WalkReference
+    com: np.ndarray  # (2,) [m]
+    com_velocity: np.ndarray  # (2,) [m/s]
+    tau_ff: np.ndarray  # (nv,) [N·m]
+
+
+@dataclass
+class _StanceSoles:
+    """The measured sole of the plan's single stance foot, summed over the ticks it alone touched
+    (yaw as unit phasors, so that the mean does not wrap)."""
+
+    side: str
+    xy: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    heading: complex = 0j
+    ticks: int = 0
+
+    def add(self, sole: pin.SE3) -> None:
+        self.xy = self.xy + sole.translation[:2]
+        self.heading += np.exp(1j * yaw_of(sole.rotation))
+        self.ticks += 1
 
 
 @dataclass(frozen=True)
@@ -67,30 +125,25 @@ class WalkingController:
     :meth:`set_time_scale`, from a hook registered with :meth:`on_sample`, which runs at the start of
     every pattern-generator sample, just before the MPC solves it."""
 
-    def __init__(self, robot: RobotModel, state: JointState, params: WalkParams | None = None,
-                 control_dt: float = 0.005, stabilize: bool = True,
-                 upper_body: Callable[[float], np.ndarray] | None = None,
-                 dynfilter: FilterMode | str = FilterMode.OFF, dynfilter_passes: int = 2,
-                 dynfilter_worker: bool = False, trunk_weight: float = 1.0, balance_with_arms: bool = True,
-                 recover_pushes: bool = True):
-        """``params``: pattern-generator settings; its robot-dependent fields are derived from the
-        robot's start posture when not given (:meth:`WalkParams.for_robot`). ``stabilize``: DCM/ZMP
-        balance feedback (``DcmStabilizer``). ``upper_body(t)``: posture-task target (joint order, rad)
-        at time t, default the half-sitting posture; ``dynfilter``: :class:`FilterMode`, in a worker
-        process one WPG sample behind with ``dynfilter_worker`` (``DynamicFilterWorker``). Call
-        :meth:`close` when done (it ends the worker). ``trunk_weight``, ``balance_with_arms``: how the
-        IK may use the upper body (``WholeBodyIK``). ``recover_pushes``: the plan takes up a DCM
-        departure beyond ``push_recovery.DEAD_BAND`` at each sample (:mod:`~robot_ctrl.control.push_recovery`)."""
-        dynfilter = FilterMode.parse(dynfilter)
+    def __init__(self, robot: RobotModel, state: JointState, options: WalkingOptions = WalkingOptions(), *,
+                 upper_body: Callable[[float], np.ndarray] | None = None):
+        """Start standing where ``state`` (the first measured state) says the robot is, walking as
+        ``options`` say. ``upper_body(t)``: posture-task target (joint order, rad) at time t, default
+        the start posture (:meth:`set_upper_body` changes it). Call :meth:`close` when done (it ends
+        the dynamic filter's worker)."""
+        dynfilter = FilterMode.parse(options.dynfilter)
+        control_dt = options.control_dt
+        self.options = options
         self.robot = robot
         self.dt = control_dt
         q0 = configuration(robot, state.base_pos, state.base_quat_xyzw, state.q)
-        self.ik = WholeBodyIK(robot, q0, trunk_weight=trunk_weight, balance_with_arms=balance_with_arms)
+        self.ik = WholeBodyIK(robot, q0, trunk_weight=options.trunk_weight,
+                              balance_with_arms=options.balance_with_arms)
         feet = {s: self.ik.pose(f"{s}_foot") for s in SIDES}
         self.sole_height = float(np.mean([feet[s].translation[2] for s in SIDES]))
         com = self.ik.com_position()
         self.com_z = float(com[2])
-        self.params = (WalkParams() if params is None else params).for_robot(
+        self.params = options.walk_params.for_robot(
             com_height=self.com_z - self.sole_height, foot_length=robot.config.foot.length,
             foot_width=robot.config.foot.width,
             step_width=float(np.linalg.norm(feet["left"].translation[:2] - feet["right"].translation[:2])))
@@ -100,24 +153,24 @@ class WalkingController:
             raise ValueError(f"control_dt = {control_dt} s must not exceed WalkParams.sample_time = "
                              f"{self.params.sample_time} s")
         self.stabilizer = DcmStabilizer(self.params.com_height)
-        self.stabilizer.enabled = stabilize
-        default_posture = self.ik.posture.target.copy()
-        self.upper_body = upper_body if upper_body is not None else (lambda t: default_posture)
-        worker = dynfilter_worker and dynfilter is not FilterMode.OFF
+        self.stabilizer.enabled = options.stabilize
+        self.start_posture = self.ik.posture.target.copy()
+        self.upper_body = upper_body if upper_body is not None else (lambda t: self.start_posture)
+        worker = options.dynfilter_worker and dynfilter is not FilterMode.OFF
         self.dynfilter = (DynamicFilterWorker if worker else DynamicFilter)(
-            robot, self.params.horizon, self.params.com_height, dynfilter, dynfilter_passes)
+            robot, self.params.horizon, self.params.com_height, dynfilter, options.dynfilter_passes)
         self.estimator = StateEstimator(robot)
         self.estimate = None
         self._statics = robot.pin.createData()
         self.k = 0
         self.reference: WalkReference | None = None
-        self._prepared: tuple[WalkReference, np.ndarray, np.ndarray, np.ndarray] | None = None  # see prepare
+        self._prepared: PreparedTick | None = None
         self._v = np.zeros(robot.pin.nv)  # the IK's velocity at the last tick
         self._sample_hooks: list[Callable[[PlanSample], None]] = []
         self._hands: dict[str, tuple[np.ndarray, np.ndarray] | None] = {s: None for s in SIDES}
         self._balance_shift = np.zeros(2)
-        self._stance: tuple[str, np.ndarray, complex, int] | None = None  # side, sums of sole xy and yaw phasor, ticks
-        self.recover_pushes = recover_pushes
+        self._stance: _StanceSoles | None = None
+        self.recover_pushes = options.recover_pushes
         self.push_recoveries = 0  # samples at which the plan took up a DCM departure
 
     # Commands ---------------------------------------------------------------------------------
@@ -165,8 +218,8 @@ class WalkingController:
         return self.wpg.heading
 
     @property
-    def touchdowns(self) -> list:
-        """Every planned touch-down so far (``wpg.generator.Touchdown``), in order."""
+    def touchdowns(self) -> list[Touchdown]:
+        """Every planned touch-down so far, in order."""
         return self.wpg.touchdowns
 
     @property
@@ -178,6 +231,19 @@ class WalkingController:
     def solve_times(self) -> list[float]:
         """Wall-clock time of each MPC solve [s]."""
         return self.wpg.solve_times
+
+    def reference_configuration(self) -> np.ndarray:
+        """The IK's integrated reference configuration, a copy (Pinocchio order: base position,
+        quaternion x y z w, joints; world frame)."""
+        return self.ik.q.copy()
+
+    def reference_com(self) -> np.ndarray:
+        """CoM (3,) [m] of the reference configuration (world frame)."""
+        return self.ik.com_position()
+
+    def reference_hand(self, side: str) -> np.ndarray:
+        """Hand frame position (3,) [m] of ``side`` in the reference configuration (world frame)."""
+        return self.ik.pose(f"{side}_hand").translation.copy()
 
     def footsteps(self) -> dict[str, Footstep]:
         """The feet's current planned footsteps (world frame)."""
@@ -206,39 +272,56 @@ class WalkingController:
         :meth:`step` calls it when the loop did not."""
         t = self.k * self.dt
         if self.sample_due:
-            self._follow_the_feet()
-            self._take_up_a_push()
-            if self._sample_hooks:
-                sample = self.plan_sample()
-                for hook in self._sample_hooks:
-                    hook(sample)
-            self.wpg.update()
-            self.dynfilter.update(self.wpg, self.ik.q, self.com_z, self.sole_height, self.upper_body,
-                                  self.wpg.sample_start)
+            self._plan_sample()
         tau = t - self.wpg.sample_start
         ref = self.wpg.sample(tau)
+        com, com_velocity = self._set_ik_targets(ref, t, tau)
+        self.ik.prepare(self.dt, retargetable=(self.ik.com,))  # the stabilizer moves the CoM target in step
+        self._prepared = PreparedTick(ref, com, com_velocity, self._feedforward(ref))
+
+    def _plan_sample(self) -> None:
+        """The next pattern-generator sample: the plan moved to the measured feet and DCM, the
+        commanders' hooks, the MPC, the dynamic filter on the solved plan."""
+        self._follow_the_feet()
+        self._take_up_a_push()
+        if self._sample_hooks:
+            sample = self.plan_sample()
+            for hook in self._sample_hooks:
+                hook(sample)
+        self.wpg.update()
+        self.dynfilter.update(self.wpg.preview(), self.ik.q, self.com_z, self.sole_height, self.upper_body)
+
+    def _set_ik_targets(self, ref: WalkReference, t: float, tau: float) -> tuple[np.ndarray, np.ndarray]:
+        """The plan at time ``t`` (``tau`` into its sample) → the IK's targets (placo's
+        ``update_tasks``): soles, CoM (with the filter's offset and the balance shift), posture,
+        hands and waist. Returns the CoM target and its velocity (2,) before the stabilizer's
+        correction (world frame)."""
         ik = self.ik
         for side in SIDES:
-            pos = ref.foot_position[side] + [0.0, 0.0, self.sole_height]
-            lin, wz = ref.foot_velocity[side]
-            ik.feet[side].set_target(pin.SE3(pin.utils.rpyToMatrix(0.0, 0.0, ref.foot_yaw[side]), pos),
-                                     np.concatenate([lin, [0.0, 0.0, wz]]))
-        offset, offset_velocity = self.dynfilter.offset(tau)
-        com, com_velocity = ref.com + offset + self._balance_shift, ref.com_velocity + offset_velocity
+            sole = ref.feet[side]
+            ik.feet[side].set_target(pin.SE3(pin.utils.rpyToMatrix(0.0, 0.0, sole.yaw),
+                                             sole.position + [0.0, 0.0, self.sole_height]),
+                                     np.concatenate([sole.velocity, [0.0, 0.0, sole.yaw_rate]]))
+        offset = self.dynfilter.offset(tau)
+        com, com_velocity = ref.com + offset.position + self._balance_shift, ref.com_velocity + offset.velocity
         ik.com.set_target(np.array([*com, self.com_z]), np.array([*com_velocity, 0.0]))
         ik.posture.set_target(self.upper_body(t))
         for side, hand in self._hands.items():
             ik.hands[side].active = hand is not None
             if hand is not None:
                 ik.hands[side].set_target(pin.SE3(np.eye(3), hand[0]), np.concatenate([hand[1], np.zeros(3)]))
-        waist_yaw = np.arctan2(sum(np.sin(ref.foot_yaw[s]) for s in SIDES), sum(np.cos(ref.foot_yaw[s]) for s in SIDES))
+        waist_yaw = mean_yaw([ref.feet[s].yaw for s in SIDES])
         ik.waist.set_target(pin.SE3(pin.utils.rpyToMatrix(0.0, 0.0, waist_yaw), np.zeros(3)))
-        ik.prepare(self.dt, retargetable=(ik.com,))  # the stabilizer moves the CoM target in step
+        return com, com_velocity
+
+    def _feedforward(self, ref: WalkReference) -> np.ndarray:
+        """Quasi-static joint torques (nv,) for the planned contact split, at the reference
+        configuration extrapolated over the tick (module docstring)."""
         frames, shares = self.contact_split(ref)
-        q_ahead = pin.integrate(self.robot.pin, ik.q, self._v * self.dt)
+        q_ahead = pin.integrate(self.robot.pin, self.ik.q, self._v * self.dt)
         tau_ff, _ = static_torques(self.robot.pin, self._statics, q_ahead, frames, shares,
                                    np.array([*ref.com_acceleration, 0.0]))
-        self._prepared = (ref, com, com_velocity, tau_ff)
+        return tau_ff
 
     def _follow_the_feet(self) -> None:
         """Move the plan (and the IK's reference configuration with it) to where the stance foot
@@ -253,13 +336,12 @@ class WalkingController:
         moved the robot by decimetres must not leave the plan (and the path follower, which steers
         the plan) walking elsewhere."""
         stance, self._stance = self._stance, None
-        if stance is None or stance[3] < MIN_STANCE_TICKS:
+        if stance is None or stance.ticks < MIN_STANCE_TICKS:
             return
-        side, total, heading, n = stance
-        planned = self.wpg.feet[side]
-        yaw_gap = wrap_angle(np.angle(heading) - planned.yaw)
+        planned = self.wpg.feet[stance.side]
+        yaw_gap = wrap_angle(np.angle(stance.heading) - planned.yaw)
         turn = float(np.sign(yaw_gap) * min(max(abs(yaw_gap) - YAW_DEAD_BAND, 0.0), MAX_YAW_FOLLOW))
-        delta = total / n - planned.xy
+        delta = stance.xy / stance.ticks - planned.xy
         gap = float(np.linalg.norm(delta))
         if gap > MAX_FOOT_FOLLOW:
             delta *= MAX_FOOT_FOLLOW / gap
@@ -274,7 +356,7 @@ class WalkingController:
     def _take_up_a_push(self) -> None:
         """The plan's DCM moves to within the dead band of the measured one (``push_recovery``), so
         that this sample's MPC places the footsteps from where the robot is going."""
-        if not self.recover_pushes or self.estimate is None or self.wpg.phase == "stand":
+        if not self.recover_pushes or self.estimate is None or self.wpg.standing:
             return
         omega = self.stabilizer.omega
         change = plan_velocity_change(self.estimate.dcm(omega), self.wpg.dcm(), omega)
@@ -290,28 +372,29 @@ class WalkingController:
         if len(down) != 1 or not est.in_contact[down[0]] or est.in_contact[other(down[0])]:
             return
         side = down[0]
-        if self._stance is None or self._stance[0] != side:
-            self._stance = (side, np.zeros(2), 0j, 0)
-        _, total, heading, n = self._stance
-        sole = est.soles[side]
-        self._stance = (side, total + sole.translation[:2], heading + np.exp(1j * yaw_of(sole.rotation)), n + 1)
+        if self._stance is None or self._stance.side != side:
+            self._stance = _StanceSoles(side)
+        self._stance.add(est.soles[side])
 
     def step(self, state: JointState) -> JointCommand:
         """The joint command for the tick from the measured ``state``: the balance stabilizer's
         CoM correction completes the prepared IK solve."""
         if self._prepared is None:
             self.prepare()
-        (ref, com, com_velocity, tau_ff), self._prepared = self._prepared, None
+        prepared, self._prepared = self._prepared, None
+        ref = prepared.reference
         self.k += 1
         self.reference = ref
         self.estimate = self.estimator.estimate(state)
         self._measure_stance(ref)
-        correction = self.stabilizer.correction(self.estimate, com, com_velocity, ref.zmp + self._balance_shift, self.dt)
+        correction = self.stabilizer.correction(self.estimate, prepared.com, prepared.com_velocity,
+                                                ref.zmp + self._balance_shift, self.dt)
         ik = self.ik
-        ik.com.set_target(np.array([*(com + correction), self.com_z]), ik.com.target_velocity)
+        ik.com.set_target(np.array([*(prepared.com + correction), self.com_z]), ik.com.target_velocity)
         v = self._v = ik.finish(retargeted=(ik.com,))
         r = self.robot
-        return JointCommand(q=r.joints_from_q(ik.q), dq=v[r.v_index], kp=r.kp, kd=r.kd, tau_ff=tau_ff[r.v_index])
+        return JointCommand(q=r.joints_from_q(ik.q), dq=v[r.v_index], kp=r.kp, kd=r.kd,
+                            tau_ff=prepared.tau_ff[r.v_index])
 
     def close(self) -> None:
         """Release what the controller holds outside this process (the filter worker)."""
@@ -323,5 +406,5 @@ class WalkingController:
         down = [s for s in SIDES if ref.in_contact[s]]
         if len(down) == 1:
             return [ids[f"{down[0]}_foot"]], [1.0]
-        shares = weight_shares(ref.zmp, ref.foot_position["left"][:2], ref.foot_position["right"][:2])
+        shares = weight_shares(ref.zmp, ref.feet["left"].position[:2], ref.feet["right"].position[:2])
         return [ids["left_foot"], ids["right_foot"]], list(shares)

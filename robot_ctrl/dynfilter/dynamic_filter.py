@@ -29,10 +29,10 @@ import pinocchio as pin
 from robot_ctrl.dynfilter.multibody_zmp import trajectory_zmp
 from robot_ctrl.dynfilter.preview_correction import PreviewCorrection
 from robot_ctrl.dynfilter.preview_ik import PreviewIK
-from robot_ctrl.geometry import SIDES
+from robot_ctrl.geometry import SIDES, mean_yaw
 from robot_ctrl.modes import FilterMode
 from robot_ctrl.robot.model import RobotModel
-from robot_ctrl.wpg.generator import PreviewSample, WalkingPatternGenerator
+from robot_ctrl.wpg.plan import PlanPreview
 
 DOUBLE_SUPPORT_WEIGHT = 0.1  # of the ZMP error in double-support samples (see PreviewCorrection)
 # The guard (a filter that never hurts): an update is refused, and the offset plan led smoothly back
@@ -42,6 +42,15 @@ DOUBLE_SUPPORT_WEIGHT = 0.1  # of the ZMP error in double-support samples (see P
 # below 21 mm; at 0.5 m/s without the guard the error grew past 1 m and the robot fell.
 MAX_ZMP_ERROR = 0.06  # [m]
 MAX_OFFSET = 0.06  # [m]
+
+
+@dataclass(frozen=True)
+class ComOffset:
+    """The filter's correction of the planned CoM at one instant (world frame): what the controller
+    adds to the plan's CoM and its velocity."""
+
+    position: np.ndarray  # (2,) [m]
+    velocity: np.ndarray  # (2,) [m/s]
 
 
 class DynamicFilter:
@@ -65,17 +74,17 @@ class DynamicFilter:
         if not (isinstance(passes, int) and 1 <= passes <= 10):
             raise ValueError(f"dynfilter passes = {passes!r} must be an integer in [1, 10]")
 
-    def update(self, wpg: WalkingPatternGenerator, q_ref: np.ndarray, com_z: float, sole_height: float,
-               posture: Callable[[float], np.ndarray], t0: float) -> None:
-        """Refine the CoM offset for the sample the WPG just solved (starting at time ``t0``).
-        ``q_ref``: the IK's current reference configuration; ``posture(t)``: the upper-body
-        (posture task) target at time t; ``com_z``, ``sole_height``: the controller's constants."""
-        if self.mode != "off":
-            self.refine(filter_request(self.mode, wpg, q_ref, com_z, sole_height, posture, t0))
+    def update(self, plan: PlanPreview, q_ref: np.ndarray, com_z: float, sole_height: float,
+               posture: Callable[[float], np.ndarray]) -> None:
+        """Refine the CoM offset for the sample the WPG just solved (``plan``). ``q_ref``: the IK's
+        current reference configuration; ``posture(t)``: the upper-body (posture task) target at
+        time t; ``com_z``, ``sole_height``: the controller's constants."""
+        if self.mode is not FilterMode.OFF:
+            self.refine(filter_request(self.mode, plan, q_ref, com_z, sole_height, posture))
 
     def refine(self, request: FilterRequest) -> None:
         """Carry the offset plan to the request's sample and run the passes on its plan."""
-        T, preview = request.sample_duration, request.preview
+        T, preview = request.plan.sample_duration, request.plan.samples
         if self._last_T is not None:
             self.correction.advance(self._last_T)
         self._last_T = T
@@ -102,11 +111,11 @@ class DynamicFilter:
         self.correction.state, self.correction.jerks = carried
         self.correction.return_to_zero(T)
 
-    def offset(self, tau: float) -> tuple[np.ndarray, np.ndarray]:
-        """CoM offset and its velocity (2,) ``tau`` seconds into the current sample."""
-        if self.mode == "off":
-            return np.zeros(2), np.zeros(2)
-        return self.correction.at(tau)
+    def offset(self, tau: float) -> ComOffset:
+        """The CoM offset ``tau`` seconds into the current sample."""
+        if self.mode is FilterMode.OFF:
+            return ComOffset(np.zeros(2), np.zeros(2))
+        return ComOffset(*self.correction.at(tau))
 
     def close(self) -> None:
         """Nothing to release (``DynamicFilterWorker.close`` ends its process)."""
@@ -128,28 +137,26 @@ class DynamicFilter:
 @dataclass(frozen=True)
 class FilterRequest:
     """One filter update's input as plain data (it can cross to a worker process): the WPG's
-    plan over the horizon (world frame), the sample duration [s], the IK reference configuration
-    the preview starts from, the CoM height and sole height [m] the controller holds, and the
-    posture target (joint order, rad) at each preview sample."""
+    plan over the horizon (world frame), the IK reference configuration the preview starts from,
+    the CoM height and sole height [m] the controller holds, and the posture target (joint order,
+    rad) at each preview sample."""
 
-    preview: list[PreviewSample]
-    sample_duration: float
+    plan: PlanPreview
     q_ref: np.ndarray
     com_z: float
     sole_height: float
     postures: np.ndarray  # (N + 1, nj)
 
 
-def filter_request(mode: str, wpg: WalkingPatternGenerator, q_ref: np.ndarray, com_z: float, sole_height: float,
-                   posture: Callable[[float], np.ndarray], t0: float) -> FilterRequest:
-    """The request for the sample ``wpg`` just solved (starting at ``t0``); in ``legs`` mode the
-    posture is frozen at its value at ``t0``."""
-    preview = wpg.preview()
-    if mode == "full":
-        postures = np.array([posture(t0 + s.t) for s in preview])
+def filter_request(mode: FilterMode, plan: PlanPreview, q_ref: np.ndarray, com_z: float, sole_height: float,
+                   posture: Callable[[float], np.ndarray]) -> FilterRequest:
+    """The request for the solved sample ``plan``; in ``legs`` mode the posture is frozen at its
+    value at the sample's start."""
+    if mode is FilterMode.FULL:
+        postures = np.array([posture(plan.t0 + s.t) for s in plan.samples])
     else:
-        postures = np.tile(posture(t0), (len(preview), 1))
-    return FilterRequest(preview, wpg.sample_duration, np.array(q_ref, dtype=float), com_z, sole_height, postures)
+        postures = np.tile(posture(plan.t0), (len(plan.samples), 1))
+    return FilterRequest(plan, np.array(q_ref, dtype=float), com_z, sole_height, postures)
 
 
 def _sample_targets(preview, sole_height: float, postures) -> list[tuple[list[pin.SE3], np.ndarray, np.ndarray]]:
@@ -157,8 +164,8 @@ def _sample_targets(preview, sole_height: float, postures) -> list[tuple[list[pi
     waist rotation (the feet's mean heading) and the posture (joint order)."""
     targets = []
     for sample, posture in zip(preview, postures):
-        feet = [pin.SE3(pin.utils.rpyToMatrix(0.0, 0.0, sample.feet[s][1]),
-                        sample.feet[s][0] + [0.0, 0.0, sole_height]) for s in SIDES]
-        yaw = np.arctan2(sum(np.sin(sample.feet[s][1]) for s in SIDES), sum(np.cos(sample.feet[s][1]) for s in SIDES))
+        feet = [pin.SE3(pin.utils.rpyToMatrix(0.0, 0.0, sample.feet[s].yaw),
+                        sample.feet[s].position + [0.0, 0.0, sole_height]) for s in SIDES]
+        yaw = mean_yaw([sample.feet[s].yaw for s in SIDES])
         targets.append((feet, pin.utils.rpyToMatrix(0.0, 0.0, yaw), posture))
     return targets

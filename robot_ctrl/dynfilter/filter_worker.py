@@ -20,11 +20,11 @@ from typing import Callable, NoReturn
 
 import numpy as np
 
-from robot_ctrl.dynfilter.dynamic_filter import DynamicFilter, filter_request
+from robot_ctrl.dynfilter.dynamic_filter import ComOffset, DynamicFilter, filter_request
 from robot_ctrl.dynfilter.preview_correction import PreviewCorrection
 from robot_ctrl.modes import FilterMode
 from robot_ctrl.robot.model import RobotModel
-from robot_ctrl.wpg.generator import WalkingPatternGenerator
+from robot_ctrl.wpg.plan import PlanPreview
 
 
 @dataclass(frozen=True)
@@ -81,24 +81,24 @@ class DynamicFilterWorker:
         self._process.start()
         child.close()
 
-    def update(self, wpg: WalkingPatternGenerator, q_ref: np.ndarray, com_z: float, sole_height: float,
-               posture: Callable[[float], np.ndarray], t0: float) -> None:
+    def update(self, plan: PlanPreview, q_ref: np.ndarray, com_z: float, sole_height: float,
+               posture: Callable[[float], np.ndarray]) -> None:
         """Start refining the sample the WPG just solved; apply the previous sample's result."""
         if self._pending is not None:
             result = self._receive()
             self.correction.state, self.correction.jerks = result.state, result.jerks
             self.correction.advance(self._pending)
             self.last_error, self.pass_rms, self.fallbacks = result.last_error, result.pass_rms, result.fallbacks
-        request = filter_request(self.mode, wpg, q_ref, com_z, sole_height, posture, t0)
+        request = filter_request(self.mode, plan, q_ref, com_z, sole_height, posture)
         try:
             self._connection.send(request)
         except OSError:
             self._stopped()
-        self._pending = request.sample_duration
+        self._pending = plan.sample_duration
 
-    def offset(self, tau: float) -> tuple[np.ndarray, np.ndarray]:
-        """CoM offset and its velocity (2,) ``tau`` seconds into the current sample."""
-        return self.correction.at(tau)
+    def offset(self, tau: float) -> ComOffset:
+        """The CoM offset ``tau`` seconds into the current sample."""
+        return ComOffset(*self.correction.at(tau))
 
     def _receive(self) -> FilterResult:
         try:

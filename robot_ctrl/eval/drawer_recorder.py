@@ -24,7 +24,8 @@ from pathlib import Path
 import numpy as np
 
 from robot_ctrl.geometry import SIDES, base_pose_xy_yaw
-from robot_ctrl.hw.types import SCENE_FIELDS
+from robot_ctrl.geometry.drawer import DRAWER_READINGS
+from robot_ctrl.synthesis.step_planning import Action
 
 STEP_TOLERANCE = 0.010  # [m] per action (thesis Fig. 3.41: below 10 mm)
 COMFORT_TOLERANCE = 0.03  # [m]
@@ -35,9 +36,8 @@ class DrawerRecorder:
     def __init__(self, commander, robot):
         """``commander``: the :class:`~robot_ctrl.control.walk_reach_commander.WalkReachCommander`."""
         self.commander, self.robot = commander, robot
-        names = list(robot.joint_names)
-        self._ankles = [names.index(f"leg_{s}_5_joint") for s in SIDES]  # ankle pitch
-        self._grippers = [names.index(f"gripper_{s}_joint") for s in SIDES]
+        self._ankles = [robot.config.joint_index("ankle_pitch", s) for s in SIDES]
+        self._grippers = [robot.config.joint_index("grippers", s) for s in SIDES]
         self.ankle_limit = robot.effort[self._ankles]
         self.rows: list[np.ndarray] = []
         self.synth_hand_error = np.nan
@@ -50,18 +50,18 @@ class DrawerRecorder:
         base = base_pose_xy_yaw(s.base_pos, s.base_quat_xyzw)
         tau = s.tau_demand if s.tau_demand is not None else s.tau
         grf = [float((s.foot_wrench or {}).get(side, np.zeros(6))[2]) for side in SIDES]
-        scene = s.scene if s.scene is not None else np.full(len(SCENE_FIELDS), np.nan)
+        scene = (s.scene if s.scene is not None else np.full(len(DRAWER_READINGS), np.nan))[:len(DRAWER_READINGS)]
         self.rows.append(np.concatenate([[s.t], base, tau[self._ankles], grf, s.q[self._grippers], scene]))
         c = self.commander
-        if c.output is not None and c.output.action == 3:
+        if c.output is not None and c.output.action is Action.STAND:
             target = c.targets.object(tick.t, c.hands.opening)
             self.synth_hand_error = float(np.linalg.norm(c.synthesized_hand_at_measured("right") - target))
 
     def arrays(self) -> dict[str, np.ndarray]:
-        a = np.array(self.rows).reshape(-1, 10 + len(SCENE_FIELDS))
+        a = np.array(self.rows).reshape(-1, 10 + len(DRAWER_READINGS))
         out = {"t": a[:, 0], "base": a[:, 1:4], "ankle_pitch_torque": a[:, 4:6], "grf": a[:, 6:8],
                "gripper_q": a[:, 8:10]}
-        out.update({name: a[:, 10 + i] for i, name in enumerate(SCENE_FIELDS)})
+        out.update({name: a[:, 10 + i] for i, name in enumerate(DRAWER_READINGS)})
         return out
 
     def advance(self, a: dict, t: float) -> float:

@@ -43,10 +43,11 @@ def _torques(s) -> str:
 
     from robot_ctrl.eval.html_report import figure_png, shade_spans
     from robot_ctrl.eval.tick_log import MODES
+    from robot_ctrl.hw.safety import SafetyMode
 
     t, ratio = s["log_t"], np.abs(s["log_tau"]) / s["log_effort"]
     fig, ax = plt.subplots(figsize=(9, 3.2))
-    shade_spans(ax, t, s["log_mode"] == MODES.index("damping"), color="C3", alpha=0.15)
+    shade_spans(ax, t, s["log_mode"] == MODES.index(SafetyMode.DAMPING), color="C3", alpha=0.15)
     ax.plot(t, ratio.max(axis=1), lw=0.9, label="largest over the joints")
     ax.plot(t, np.median(ratio, axis=1), lw=0.9, label="median")
     ax.axhline(1.0, color="k", lw=0.8, ls="--")

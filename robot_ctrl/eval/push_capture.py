@@ -16,6 +16,7 @@ import numpy as np
 
 from robot_ctrl.geometry import SIDES, rotation, yaw_of
 from robot_ctrl.wpg.capturability import CaptureModel, capture_boxes, largest_capturable_impulse
+from robot_ctrl.wpg.plan import GaitPhase
 
 #: [s] shortest swing: below the shortest single support the robot was seen to walk through
 #: (0.4 s; 0.3 s fell, docs/robustness.md), so that the bound stays in the robot's favour.
@@ -41,7 +42,7 @@ class PushCapture:
     def on_command(self, tick) -> None:
         c, t = self.controller, tick.states[0].t
         ref, est = c.reference, c.estimate
-        if ref.phase == "single" and self._phase != "single":
+        if ref.phase is GaitPhase.SINGLE and self._phase is not GaitPhase.SINGLE:
             self._lift = t
         self._phase = ref.phase
         while self.pending and t >= self.pending[0].time - 1e-9:

@@ -28,13 +28,13 @@ import numpy as np
 from robot_ctrl.eval.fall import FallCriterion
 from robot_ctrl.eval.run_metrics import RunMetrics
 from robot_ctrl.geometry import SIDES
-from robot_ctrl.hw.safety import INTERVENTIONS, SafetyLayer
+from robot_ctrl.hw.safety import INTERVENTIONS, SafetyLayer, SafetyMode
 from robot_ctrl.hw.types import JointState
 
 FORMAT = "robot_ctrl tick log"
 VERSION = 1
 FLUSH_TICKS = 200  # [ticks] 1 s at 200 Hz
-MODES = ("off", "normal", "damping")
+MODES = tuple(SafetyMode)  # the safety layer's mode, logged as its index
 
 
 def record_dtype(nj: int) -> np.dtype:
@@ -174,7 +174,7 @@ def log_report(log: TickLog) -> dict:
         "tracking_error_rms_rad": round(float(np.sqrt(np.mean(error**2))), 5),
         "tracking_error_max_rad": round(float(error.max()), 5), "tracking_error_max_joint": names[worst],
         "safety": {"interventions": interventions, "final_mode": h["modes"][int(final["mode"])],
-                   "damping_ticks": int((r["mode"] == MODES.index("damping")).sum())},
+                   "damping_ticks": int((r["mode"] == MODES.index(SafetyMode.DAMPING)).sum())},
         "bus": {"missing_replies": int(final["missing_replies"]), "late_replies": int(final["late_replies"]),
                 "error_frames": int(final["error_frames"]),
                 "longest_miss_streak": {n: int(m) for n, m in zip(names, r["missed"].max(axis=0)) if m}},

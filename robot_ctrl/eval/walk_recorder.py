@@ -15,6 +15,7 @@ import numpy as np
 
 from robot_ctrl.eval.walk_log import WalkLog, step_length_errors
 from robot_ctrl.geometry import SIDES, base_pose_xy_yaw, relative_pose, wrap_angle, yaw_of
+from robot_ctrl.wpg.plan import GaitPhase
 
 SETTLE_AFTER_TOUCHDOWN = 0.1  # [s] when a landed foot's pose is measured
 
@@ -31,7 +32,7 @@ class WalkRecorder:
     def on_command(self, tick) -> None:
         c, state = self.controller, tick.states[0]
         ref, est = c.reference, c.estimate
-        stance = next(s for s in SIDES if ref.in_contact[s]) if ref.phase == "single" else None
+        stance = next(s for s in SIDES if ref.in_contact[s]) if ref.phase is GaitPhase.SINGLE else None
         sole = None
         if stance is not None:
             pose = est.soles[stance]

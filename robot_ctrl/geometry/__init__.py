@@ -6,6 +6,7 @@ from robot_ctrl.geometry.frames import (
                                         SIDES,
                                         PlanarMove,
                                         base_pose_xy_yaw,
+                                        mean_yaw,
                                         other,
                                         relative_pose,
                                         rotation,
@@ -16,4 +17,4 @@ from robot_ctrl.geometry.minimum_jerk import interpolate, minimum_jerk
 from robot_ctrl.geometry.support_polygon import SupportPolygon, convex_hull, sole_corners
 
 __all__ = ["GRAVITY", "SIDES", "PlanarMove", "SupportPolygon", "base_pose_xy_yaw", "convex_hull", "interpolate",
-           "minimum_jerk", "other", "relative_pose", "rotation", "sole_corners", "wrap_angle", "yaw_of"]
+           "mean_yaw", "minimum_jerk", "other", "relative_pose", "rotation", "sole_corners", "wrap_angle", "yaw_of"]

@@ -15,6 +15,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+#: What the drawer cabinet's prop reports each tick in simulation (``JointState.scene``, in this
+#: order): the drawer's opening [m], its velocity [m/s], the hand's pull on it [N], the grasp (1 or
+#: 0), the left hand to the handle [m], the right hand to the object [m], the cabinet's distance [m].
+DRAWER_READINGS = ("drawer_opening_m", "drawer_velocity_mps", "drawer_pull_force_n", "grasped",
+                   "left_hand_to_handle_m", "right_hand_to_object_m", "cabinet_distance_m")
+
 SLOTS = ("front_left", "front_right", "back_left", "back_right")
 
 

@@ -23,6 +23,12 @@ def wrap_angle(angle: float) -> float:
     return float(np.arctan2(np.sin(angle), np.cos(angle)))
 
 
+def mean_yaw(yaws) -> float:
+    """Circular mean of headings [rad]: ``atan2(Σ sin ψ, Σ cos ψ)`` (the feet's mean heading)."""
+    yaws = np.asarray(yaws, dtype=float)
+    return float(np.arctan2(np.sin(yaws).sum(), np.cos(yaws).sum()))
+
+
 def yaw_of(rotation_matrix: np.ndarray) -> float:
     """Heading [rad] of a 3×3 rotation (its x axis projected on the floor)."""
     return float(np.arctan2(rotation_matrix[1, 0], rotation_matrix[0, 0]))

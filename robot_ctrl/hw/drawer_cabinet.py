@@ -28,8 +28,7 @@ import mujoco
 import numpy as np
 
 from robot_ctrl import __version__
-from robot_ctrl.geometry.drawer import SLOTS, DrawerGeometry, cabinet_distance
-from robot_ctrl.hw.types import SCENE_FIELDS
+from robot_ctrl.geometry.drawer import DRAWER_READINGS, SLOTS, DrawerGeometry, cabinet_distance
 
 GRASP_DISTANCE = 0.01  # [m] gripper base to the handle's grip point for the weld to switch on
 GRIPPER_CLOSED = 0.1  # [rad] the gripper joint within this of its closed end (upper limit) is closed
@@ -196,10 +195,10 @@ class DrawerCabinet:
         return float(self._force[self.slide_dof])
 
     def reading(self, d: mujoco.MjData) -> np.ndarray:
-        """``SCENE_FIELDS`` now."""
+        """``DRAWER_READINGS`` now."""
         values = {"drawer_opening_m": d.qpos[self.slide_qpos], "drawer_velocity_mps": d.qvel[self.slide_dof],
                   "drawer_pull_force_n": self.pull_force(d), "grasped": float(d.eq_active[self.weld]),
                   "left_hand_to_handle_m": self.hand_to_handle(d),
                   "right_hand_to_object_m": np.linalg.norm(d.xpos[self.reaching_hand] - d.site_xpos[self.slot_site]),
                   "cabinet_distance_m": self.distance}
-        return np.array([values[name] for name in SCENE_FIELDS], dtype=float)
+        return np.array([values[name] for name in DRAWER_READINGS], dtype=float)

@@ -49,17 +49,18 @@ from robot_ctrl.robot.model import RobotModel
 def open_hardware(kind: HardwareKind | str, robot: RobotModel, bus_config: str | None = None, viewer: bool = False,
                   control_dt: float = 0.005, video: Path | None = None,
                   disturbances: Disturbances = Disturbances(),
-                  drawer: DrawerPlacement | None = None,
+                  prop: DrawerPlacement | None = None,
                   clock: Callable[[], float] = time.monotonic) -> Iterator[SafetyLayer]:
     """The adapter for ``kind``; emulators are started before and stopped after the block.
-    ``drawer``: the walk-and-reach task's cabinet in the robot's world (``hw/drawer_cabinet.py``);
+    ``prop``: a prop placed in the robot's simulated world, whose readings arrive in
+    ``JointState.scene`` (the walk-and-reach task's drawer cabinet, ``hw/drawer_cabinet.py``);
     ``clock``: what real servos' backend and safety layer measure time with."""
     kind = HardwareKind.parse(kind)
     if disturbances.reply_loss and kind is not HardwareKind.MIT_CAN_EMULATED:
         raise ValueError(f"reply loss acts on the emulated MIT-CAN bus (--hw mit-can-emulated), not on {kind.value}")
     if kind is HardwareKind.MUJOCO:
         robot_process = RobotProcess(functools.partial(MujocoBackend, robot, control_dt, viewer=viewer, video=video,
-                                                       disturbances=disturbances, drawer=drawer), robot.nj, robot.name)
+                                                       disturbances=disturbances, prop=prop), robot.nj, robot.name)
         hw = SafetyLayer(robot_process, SafetyLimits.for_simulation(robot, control_dt), clock=None)
         try:
             yield hw
@@ -75,7 +76,7 @@ def open_hardware(kind: HardwareKind | str, robot: RobotModel, bus_config: str |
         finally:
             hw.close()
         return
-    plant = MujocoBackend(robot, control_dt, viewer=viewer, video=video, disturbances=disturbances, drawer=drawer)
+    plant = MujocoBackend(robot, control_dt, viewer=viewer, video=video, disturbances=disturbances, prop=prop)
     if kind is HardwareKind.MIT_CAN_EMULATED:
         from robot_ctrl.hw.mit_can_backend import MitCanBackend
         from robot_ctrl.hw.mit_can_emulator import MitCanEmulator

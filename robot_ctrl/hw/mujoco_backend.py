@@ -32,21 +32,21 @@ class MujocoBackend(HardwareAdapter):
     ``video``: an MP4 of the robot's own world (a shared world takes its own ``video``).
 
     Without ``world`` the robot gets a world of its own (its cached single-robot scene, with the
-    drawer cabinet of the walk-and-reach task if ``drawer`` places one). With ``world``, ``prefix``
+    prop ``prop`` places: the drawer cabinet of the walk-and-reach task). With ``world``, ``prefix``
     names the robot's copy in that scene (``<prefix>/`` joints and bodies).
     """
 
     def __init__(self, robot: RobotModel, control_dt: float = 0.005, base_xy_yaw=(0.0, 0.0, 0.0),
                  viewer: bool = False, world: MujocoWorld | None = None, prefix: str | None = None,
                  video: Path | None = None, disturbances: Disturbances = Disturbances(),
-                 drawer: DrawerPlacement | None = None):
+                 prop: DrawerPlacement | None = None):
         super().__init__(robot.nj)
         self.robot = robot
         self._owns_world = world is None
-        if drawer is not None and world is not None:
+        if prop is not None and world is not None:
             raise ValueError("the drawer cabinet goes into a robot's own world, not a shared one")
         hand = f"{robot.name}/{robot.config.hands[GRASP_SIDE]}"
-        scene = robot.mjcf_path if drawer is None else drawer_scene_mjcf(robot.mjcf_path, drawer.geometry, hand)
+        scene = robot.mjcf_path if prop is None else drawer_scene_mjcf(robot.mjcf_path, prop.geometry, hand)
         self.world = (MujocoWorld(scene, control_dt, viewer, video, disturbances.friction_scale)
                       if world is None else world)
         self.world.attach()
@@ -99,8 +99,8 @@ class MujocoBackend(HardwareAdapter):
         self._servo_qvel_col = qvel_at + self.m.jnt_dofadr[joints]
         self._gear = self.m.actuator_gear[self._acts, 0].copy()
         self._joint_order = np.arange(self.nj)
-        self.cabinet = None if drawer is None else DrawerCabinet(
-            self.m, drawer, prefix, self._start, robot.config.hands, f"gripper_{GRASP_SIDE}_joint")
+        self.cabinet = None if prop is None else DrawerCabinet(
+            self.m, prop, prefix, self._start, robot.config.hands, robot.config.joint_roles["grippers"][GRASP_SIDE])
         self._disturb(disturbances)
 
     def _disturb(self, dist: Disturbances) -> None:

@@ -50,6 +50,7 @@ another thread while a write is in flight.
 
 from __future__ import annotations
 
+import enum
 import logging
 import threading
 import time
@@ -66,6 +67,15 @@ from robot_ctrl.robot.model import RobotModel
 
 S = LifecycleState
 logger = logging.getLogger("robot_ctrl.hw.safety")
+
+
+class SafetyMode(str, enum.Enum):
+    """What the layer sends: nothing yet or any more (``OFF``), the controller's commands
+    (``NORMAL``), or damping (``DAMPING``: kp = 0, τ_ff = 0, kd = ``kd_damping``)."""
+
+    OFF = "off"
+    NORMAL = "normal"
+    DAMPING = "damping"
 
 
 @dataclass(frozen=True)
@@ -141,7 +151,7 @@ class SafetyLayer(HardwareAdapter):
         self.clock = clock if clock is not None else self._state_time
         self._latest_t = 0.0  # time of the last good state read [s]
         self.interventions: Counter[str] = Counter()
-        self.mode = "off"  # "normal", "damping", "off"
+        self.mode = SafetyMode.OFF
         self._lock = threading.RLock()  # the layer's bookkeeping; never held across a backend call
         self._epoch = 0  # counts entries into damping and e-stop (a write in flight then re-sends)
         self._pending: JointCommand | None = None  # a damping command decided under the lock, to send
@@ -164,11 +174,11 @@ class SafetyLayer(HardwareAdapter):
         with self._lock:
             self._begin_soft_start()
             self._last_write = self.clock()  # armed: a controller that never writes is caught too
-            self.mode = "normal"
+            self.mode = SafetyMode.NORMAL
 
     def _on_deactivate(self) -> None:
         self.backend.deactivate()
-        self.mode = "off"
+        self.mode = SafetyMode.OFF
 
     def estop(self) -> None:
         """Latch the e-stop, then send the backend's damping; never waits for a write in flight."""
@@ -177,7 +187,7 @@ class SafetyLayer(HardwareAdapter):
                 return
             if self._state is not S.ESTOP:
                 self._state = S.ESTOP
-                self.mode = "off"
+                self.mode = SafetyMode.OFF
                 self._epoch += 1
                 self._intervene("estop", "servos in damping mode, latched until reset()")
         self._on_estop()
@@ -198,7 +208,7 @@ class SafetyLayer(HardwareAdapter):
         try:
             if self._state is S.ACTIVE and self.backend.state is S.ACTIVE:
                 with self._lock:
-                    self.mode = "off"
+                    self.mode = SafetyMode.OFF
                     damping = self._damping_command()
                 self.backend.write(damping)  # soft first, in case a drive misses the disable
                 self.backend.deactivate()
@@ -276,7 +286,7 @@ class SafetyLayer(HardwareAdapter):
             with self._lock:
                 self._intervene("backend_fault", detail)
                 self._state = S.FAULT
-                self.mode = "off"
+                self.mode = SafetyMode.OFF
                 self._epoch += 1
             try:
                 self.backend.estop()
@@ -287,7 +297,7 @@ class SafetyLayer(HardwareAdapter):
     def check_watchdog(self) -> None:
         """Enter damping mode if no write came for ``watchdog_periods`` control periods."""
         with self._lock:
-            if self._state is not S.ACTIVE or self.mode != "normal" or self._last_write is None:
+            if self._state is not S.ACTIVE or self.mode is not SafetyMode.NORMAL or self._last_write is None:
                 return
             silent = self.clock() - self._last_write
             if silent <= self.limits.watchdog_periods * self.limits.control_dt:
@@ -298,7 +308,7 @@ class SafetyLayer(HardwareAdapter):
 
     def report(self) -> dict:
         b = self.backend
-        return {"interventions": dict(self.interventions), "mode": self.mode, "state": self.state.value,
+        return {"interventions": dict(self.interventions), "mode": self.mode.value, "state": self.state.value,
                 "bus": {"missing_replies": b.missing_replies, "late_replies": b.late_replies,
                         "error_frames": b.error_frames}}
 
@@ -319,7 +329,7 @@ class SafetyLayer(HardwareAdapter):
         if previous is None or state.t > previous.t:
             self._fresh_at = now
         elif self._fresh_at is not None and now - self._fresh_at > self.limits.stale_periods * self.limits.control_dt:
-            if self.mode == "normal":
+            if self.mode is SafetyMode.NORMAL:
                 self._intervene("stale_state", f"no new state for {now - self._fresh_at:.3f} s")
                 self._enter_damping(state)
         self._last_good = state
@@ -336,10 +346,10 @@ class SafetyLayer(HardwareAdapter):
                  and self._last_write - self._fresh_at > self.limits.stale_periods * self.limits.control_dt)
         if stale or self._last_good is None:
             return self._damping_command()
-        if self.mode == "damping":
+        if self.mode is SafetyMode.DAMPING:
             logger.info("resuming from damping mode with a soft start")
             self._begin_soft_start()
-            self.mode = "normal"
+            self.mode = SafetyMode.NORMAL
         return self._filter(command)
 
     def _damping_command(self, state: JointState | None = None) -> JointCommand:
@@ -351,7 +361,7 @@ class SafetyLayer(HardwareAdapter):
                                           kp=zero.copy(), kd=self.limits.kd_damping.copy(), tau_ff=zero.copy()))
 
     def _enter_damping(self, state: JointState | None) -> None:
-        self.mode = "damping"
+        self.mode = SafetyMode.DAMPING
         self._epoch += 1
         self._pending = self._last_sent = self._damping_command(state)
 
@@ -365,7 +375,7 @@ class SafetyLayer(HardwareAdapter):
         with self._lock:
             if self._state is S.ESTOP:
                 command = None
-            elif self.mode == "damping":
+            elif self.mode is SafetyMode.DAMPING:
                 command = self._damping_command()
             else:
                 return

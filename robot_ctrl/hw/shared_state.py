@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from robot_ctrl.geometry import SIDES
-from robot_ctrl.hw.types import SCENE_FIELDS, JointCommand, JointState
+from robot_ctrl.hw.types import SCENE_CHANNELS, JointCommand, JointState
 
 
 class _Shared:
@@ -53,7 +53,7 @@ def _state_slots(nj: int) -> dict[tuple[str, str | None], int]:
               "base_linacc": 3}
     return {**{(name, None): n for name, n in arrays.items()}, **{("foot_wrench", side): 6 for side in SIDES},
             ("tau_demand", None): nj, ("temperature", None): nj,
-            ("scene", None): len(SCENE_FIELDS)}
+            ("scene", None): SCENE_CHANNELS}
 
 
 class SharedState(_Shared):
@@ -83,7 +83,9 @@ class SharedState(_Shared):
         for i, (field, side, view) in enumerate(self._slots):
             value = getattr(state, field) if side is None else wrench.get(side)
             self._present[i] = value is not None
-            if value is not None:
+            if value is not None and field == "scene":  # a prop's readings, padded with NaN
+                view[:len(value)], view[len(value):] = value, np.nan
+            elif value is not None:
                 view[:] = value
 
     def get(self, floor_contacts: tuple[str, ...] = ()) -> JointState:

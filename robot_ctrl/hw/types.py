@@ -11,9 +11,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-#: ``JointState.scene``: the simulated scene's ground truth, for reports (never for control).
-SCENE_FIELDS = ("drawer_opening_m", "drawer_velocity_mps", "drawer_pull_force_n", "grasped", "left_hand_to_handle_m",
-                "right_hand_to_object_m", "cabinet_distance_m")
+#: Readings a simulated scene's props may report per tick (``JointState.scene``).
+SCENE_CHANNELS = 8
 
 
 class LifecycleState(enum.Enum):
@@ -48,7 +47,9 @@ class JointState:
       saturation over the last control period [N·m] (simulation backends; shows a saturating servo).
     - ``floor_contacts``: names of bodies other than the feet that touch the floor (simulation).
     - ``temperature``: per joint, the servo's reported temperature [°C] (bus backends).
-    - ``scene``: the simulated scene's props, measured (``SCENE_FIELDS``; the drawer task's scene).
+    - ``scene``: readings of the simulated scene's props, the simulation's ground truth for reports
+      (never for control): at most ``SCENE_CHANNELS`` numbers, named by the prop that reports them
+      (e.g. ``geometry.drawer.DRAWER_READINGS``).
     """
 
     t: float

@@ -40,6 +40,10 @@ class ServoGains:
     armature: str | float  # "srdf" or a rotor inertia reflected to the joint [kg·m²]
 
 
+#: The joint roles a robot config names per side (``joints:``).
+JOINT_ROLES = ("ankle_pitch", "elbows", "grippers")
+
+
 @dataclass(frozen=True)
 class RobotConfig:
     """Static description of one robot (see ``configs/robots/talos.yaml`` for the fields)."""
@@ -53,6 +57,7 @@ class RobotConfig:
     hands: Mapping[str, str]  # side -> hand frame
     torso: str
     waist: str
+    joint_roles: Mapping[str, Mapping[str, str]]  # role ("ankle_pitch", "elbows", "grippers") -> side -> joint
     foot: FootGeometry
     joint_names: tuple[str, ...]  # the robot's joint order for every hardware array
     half_sitting: tuple[float, ...]  # [rad], in joint_names order
@@ -69,6 +74,10 @@ class RobotConfig:
         out.update({f"{side}_hand": f for side, f in self.hands.items()})
         out.update(torso=self.torso, waist=self.waist)
         return out
+
+    def joint_index(self, role: str, side: str) -> int:
+        """Index (in ``joint_names``) of the joint with ``role`` on ``side``, e.g. the left gripper."""
+        return self.joint_names.index(self.joint_roles[role][side])
 
 
 def available_robots() -> list[str]:
@@ -116,6 +125,11 @@ def parse_robot_config(raw: Mapping[str, Any], source: str = "robot config") -> 
     for group, sides in (("feet", feet), ("hands", hands)):
         if set(sides) != {"left", "right"}:
             raise ConfigError(f"{source}: frames.{group} must have exactly the keys 'left' and 'right'")
+    roles = _field(raw, "joints", source, Mapping)
+    for role in JOINT_ROLES:
+        sides = _field(roles, role, f"{source}: joints", Mapping)
+        if set(sides) != {"left", "right"}:
+            raise ConfigError(f"{source}: joints.{role} must have exactly the keys 'left' and 'right'")
     foot = _field(raw, "foot", source, Mapping)
     offset = _field(foot, "center_offset", f"{source}: foot", list)
     if len(offset) != 2:
@@ -126,6 +140,10 @@ def parse_robot_config(raw: Mapping[str, Any], source: str = "robot config") -> 
     for joint, angle in posture.items():
         if not isinstance(angle, (int, float)) or not math.isfinite(angle) or abs(angle) > 2 * math.pi:
             raise ConfigError(f"{source}: half_sitting.{joint} = {angle!r} must be a finite angle in [-2π, 2π] rad")
+    for role in JOINT_ROLES:
+        for side, joint in roles[role].items():
+            if joint not in posture:
+                raise ConfigError(f"{source}: joints.{role}.{side} = {joint!r} is not a joint of half_sitting")
     servo = _field(raw, "servo", source, Mapping)
     armature = _field(servo, "armature", f"{source}: servo", (str, int, float))
     if isinstance(armature, str) and armature != "srdf":
@@ -144,6 +162,7 @@ def parse_robot_config(raw: Mapping[str, Any], source: str = "robot config") -> 
         hands=dict(hands),
         torso=_field(frames, "torso", f"{source}: frames", str),
         waist=_field(frames, "waist", f"{source}: frames", str),
+        joint_roles={role: dict(roles[role]) for role in JOINT_ROLES},
         foot=FootGeometry(
             length=_number(foot, "length", f"{source}: foot", 0.01, 1.0),
             width=_number(foot, "width", f"{source}: foot", 0.01, 1.0),

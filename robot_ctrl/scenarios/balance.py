@@ -48,7 +48,7 @@ class HandError:
             self.log(f"t = {state.t:6.2f} s  hand error {self.error * 1000:.1f} mm")
 
 
-def run_balance(robot: RobotModel, hw: SafetyLayer, params: BalanceParams = BalanceParams(),
+def run_balance(robot: RobotModel, hw: SafetyLayer, params: BalanceParams = BalanceParams(), *,
                 out_dir: Path | None = None, log: Callable[[str], None] = print, progress: bool = False,
                 disturbances: Disturbances = Disturbances(), recorders: Sequence = (),
                 base_state: BaseState = BaseState.SIMULATED, pacer: Pacer | None = None) -> dict:

@@ -13,7 +13,7 @@ from typing import Callable, Sequence
 from robot_ctrl.control.drawer_targets import DrawerTargets
 from robot_ctrl.control.pacer import Pacer
 from robot_ctrl.control.walk_reach_commander import WalkReachCommander
-from robot_ctrl.control.walking_controller import WalkingController
+from robot_ctrl.control.walking_controller import WalkingController, WalkingOptions
 from robot_ctrl.eval.drawer_recorder import DrawerRecorder
 from robot_ctrl.eval.push_capture import PushCapture
 from robot_ctrl.eval.recorders import HeldFor, ProgressBar, TimeLimit
@@ -33,17 +33,18 @@ from robot_ctrl.synthesis.primitives import WalkReachPrimitives
 STAND_AFTER = 1.0  # [s] standing after the sequence ended
 
 
-def run_drawer(robot: RobotModel, hw: SafetyLayer, primitives: WalkReachPrimitives, task: DrawerTask,
+def run_drawer(robot: RobotModel, hw: SafetyLayer, primitives: WalkReachPrimitives, task: DrawerTask, *,
                out_dir: Path | None = None, log: Callable[[str], None] = print, progress: bool = False,
                disturbances: Disturbances = Disturbances(), recorders: Sequence = (),
                geometry: DrawerGeometry = DrawerGeometry(), pacer: Pacer | None = None) -> dict:
-    """Run ``task`` on ``hw`` (from ``open_hardware(..., drawer=...)``, which placed the cabinet);
+    """Run ``task`` on ``hw`` (from ``open_hardware(..., prop=DrawerPlacement(...))``, which placed the cabinet);
     ``recorders`` (a tick log) see every tick; ``pacer`` keeps a real robot's ticks on time (the
     cabinet then stands where the task says, and its drawer is not measured)."""
     dt = task.control_dt
-    controller, run = start_run(robot, hw, task.base_state, lambda seen: WalkingController(
-        robot, seen, None, dt, dynfilter=task.dynfilter, dynfilter_worker=True, trunk_weight=TRUNK_POSTURE_FACTOR,
-        balance_with_arms=False), pacer, recorders, log)
+    options = WalkingOptions(control_dt=dt, dynfilter=task.dynfilter, dynfilter_worker=True,
+                             trunk_weight=TRUNK_POSTURE_FACTOR, balance_with_arms=False)
+    controller, run = start_run(robot, hw, task.base_state, lambda seen: WalkingController(robot, seen, options),
+                                pacer, recorders, log)
     start = base_pose_xy_yaw(run.state.base_pos, run.state.base_quat_xyzw)
     targets = DrawerTargets(start, float(run.state.base_pos[2]), task.distance, task.slot, task.jumps, geometry)
     commander = WalkReachCommander(controller, primitives, targets, log)

@@ -12,7 +12,7 @@ from typing import Callable
 import numpy as np
 
 from robot_ctrl.control.loop import ControlLoop
-from robot_ctrl.control.walking_controller import WalkingController
+from robot_ctrl.control.walking_controller import WalkingController, WalkingOptions
 from robot_ctrl.crowd.gait_profile import GaitProfile, binned_speed
 from robot_ctrl.eval import FallCriterion, RunMetrics
 from robot_ctrl.eval.recorders import Fell, MetricsRecorder, ProgressBar, TimeLimit
@@ -55,7 +55,7 @@ def measure_gait_profile(robot: RobotModel, hw: SafetyLayer, speed: float = 0.2,
     hw.configure()
     hw.activate()
     state = hw.read()
-    controller = WalkingController(robot, state, None, control_dt)
+    controller = WalkingController(robot, state, WalkingOptions(control_dt=control_dt))
     recorder = PhaseSpeedRecorder(controller, speed, cycles)
     metrics = RunMetrics(robot.joint_names, robot.effort, FallCriterion(float(state.base_pos[2])))
     expected = controller.params.start_transfer + 2 * (cycles + 1) * controller.params.step_period

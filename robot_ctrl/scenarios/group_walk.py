@@ -17,7 +17,7 @@ import numpy as np
 
 from robot_ctrl.control.coupling_commander import CouplingCommander
 from robot_ctrl.control.loop import ControlLoop
-from robot_ctrl.control.walking_controller import WalkingController
+from robot_ctrl.control.walking_controller import WalkingController, WalkingOptions
 from robot_ctrl.crowd.group_walk_settings import GroupWalk, certified_coupling
 from robot_ctrl.eval import FallCriterion, RunMetrics
 from robot_ctrl.eval.group_walk_report import TouchdownRecorder, group_walk_report
@@ -30,7 +30,7 @@ from robot_ctrl.wpg.params import WalkParams
 STAND_AFTER = 1.5  # [s] standing after the stop
 
 
-def run_group_walk(robot: RobotModel, g: GroupWalk = GroupWalk(), hw_kind: str = "mujoco",
+def run_group_walk(robot: RobotModel, g: GroupWalk = GroupWalk(), hw_kind: str = "mujoco", *,
                    out_dir: Path | None = None, viewer: bool = False, video: Path | None = None,
                    log: Callable[[str], None] = print, progress: bool = False, control_dt: float = 0.005,
                    disturbances: Disturbances = Disturbances()) -> dict:
@@ -45,14 +45,15 @@ def run_group_walk(robot: RobotModel, g: GroupWalk = GroupWalk(), hw_kind: str =
             hw.activate()
         world.open_viewer()
         states = [hw.read() for hw in hws]
-        controllers = [WalkingController(robot, s, None, control_dt) for s in states]
+        controllers = [WalkingController(robot, s, WalkingOptions(control_dt=control_dt)) for s in states]
         commander = CouplingCommander(controllers, coupling, bridge, g.speed, starts, g.coupled_time, log)
         metrics = [RunMetrics(robot.joint_names, robot.effort, FallCriterion(float(s.base_pos[2]))) for s in states]
         touchdowns = TouchdownRecorder(controllers)
         bar = ProgressBar(starts.max() + g.coupled_time + 2 * bridge.step_period + STAND_AFTER + 2.0, progress)
         stood = _StoodAfterStop(commander, controllers, 2 * bridge.step_period + STAND_AFTER)
-        loop = ControlLoop(hws, controllers, control_dt, [commander], [MetricsRecorder(metrics), touchdowns, bar],
-                           [Fell(metrics), stood, TimeLimit(starts.max() + g.coupled_time + 20.0, "the group did not stop")])
+        limit = TimeLimit(starts.max() + g.coupled_time + 20.0, "the group did not stop")
+        loop = ControlLoop(hws, controllers, control_dt, commanders=[commander],
+                           recorders=[MetricsRecorder(metrics), touchdowns, bar], stops=[Fell(metrics), stood, limit])
         try:
             result = loop.run(states)
         finally:

@@ -52,7 +52,7 @@ def _walked(report: dict) -> bool:
     return "error" not in report and not report["fell"]
 
 
-def run_robustness(out_dir: Path, jobs: int = 1, directions=DIRECTIONS, phases=PHASES,
+def run_robustness(out_dir: Path, jobs: int = 1, *, directions=DIRECTIONS, phases=PHASES,
                    magnitudes=MAGNITUDES, mismatch: dict = MISMATCH, log: Callable[[str], None] = print,
                    progress: bool = True, single: float = WalkParams.single_support,
                    double: float = WalkParams.double_support) -> dict:

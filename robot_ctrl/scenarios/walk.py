@@ -15,7 +15,7 @@ from robot_ctrl.control.arm_swing import arm_motion
 from robot_ctrl.control.pacer import Pacer
 from robot_ctrl.control.path_commander import PathCommander
 from robot_ctrl.control.path_follower import WalkGoal
-from robot_ctrl.control.walking_controller import WalkingController
+from robot_ctrl.control.walking_controller import WalkingController, WalkingOptions
 from robot_ctrl.eval.push_capture import PushCapture
 from robot_ctrl.eval.recorders import HeldFor, ProgressBar, TimeLimit
 from robot_ctrl.eval.report_file import write_report
@@ -27,37 +27,32 @@ from robot_ctrl.hw.safety import SafetyLayer
 from robot_ctrl.modes import ArmMotion, BaseState, FilterMode
 from robot_ctrl.robot.model import RobotModel
 from robot_ctrl.scenarios.robot_run import start_run
-from robot_ctrl.wpg.params import WalkParams
 
 STAND_AFTER = 2.0  # [s] standing after the stop
 
 
 @dataclass(frozen=True)
 class WalkSettings:
-    stabilize: bool = True  # DCM/ZMP balance feedback
-    recover_pushes: bool = True  # the plan takes up a pushed DCM (control.push_recovery)
+    """A walk's settings: the controller's options (step timing in ``controller.params``; the
+    filter in a worker process by default), the arms, the GRF limit the report judges against, and
+    where the controller's base pose and velocity come from."""
+
+    controller: WalkingOptions = WalkingOptions(dynfilter_worker=True)
     arms: ArmMotion = ArmMotion.NONE
-    dynfilter: FilterMode = FilterMode.OFF
-    dynfilter_passes: int = 2
-    dynfilter_worker: bool = True  # the filter in a worker process, one WPG sample behind
-    control_dt: float = 0.005  # [s]
     grf_limit_ratio: float = GRF_LIMIT_RATIO
-    base_state: BaseState = BaseState.SIMULATED  # where the controller's base pose and velocity come from
-    single_support: float = WalkParams.single_support  # [s] step timing of the pattern generator
-    double_support: float = WalkParams.double_support  # [s]
+    base_state: BaseState = BaseState.SIMULATED
 
 
-def run_walk(robot: RobotModel, hw: SafetyLayer, goal: WalkGoal, settings: WalkSettings = WalkSettings(),
+def run_walk(robot: RobotModel, hw: SafetyLayer, goal: WalkGoal, settings: WalkSettings = WalkSettings(), *,
              out_dir: Path | None = None, log: Callable[[str], None] = print, progress: bool = False,
              disturbances: Disturbances = Disturbances(), recorders: Sequence = (), pacer: Pacer | None = None) -> dict:
     """Walk ``goal`` on ``hw`` (from :func:`robot_ctrl.hw.hardware.open_hardware`, which applied
     ``disturbances``: the report lists them) and report; ``recorders`` (a tick log) see every tick;
     ``pacer`` keeps a real robot's ticks on time."""
-    s, dt = settings, settings.control_dt
-    params = WalkParams(single_support=s.single_support, double_support=s.double_support)
+    s, options = settings, settings.controller
+    dt, params = options.control_dt, options.walk_params
     controller, run = start_run(robot, hw, s.base_state, lambda seen: WalkingController(
-        robot, seen, params, dt, s.stabilize, arm_motion(s.arms, robot), s.dynfilter, s.dynfilter_passes,
-        s.dynfilter_worker, recover_pushes=s.recover_pushes), pacer, recorders, log)
+        robot, seen, options, upper_body=arm_motion(s.arms, robot)), pacer, recorders, log)
     start = base_pose_xy_yaw(run.state.base_pos, run.state.base_quat_xyzw)
     path = PathCommander(controller, goal, start, log)
     foot = robot.config.foot
@@ -69,13 +64,13 @@ def run_walk(robot: RobotModel, hw: SafetyLayer, goal: WalkGoal, settings: WalkS
     result = run.loop(dt, bar, recorders=[walk, capture],
                       stops=[stood, TimeLimit(path.time_limit, "did not finish the path")])
     log(result.stop_reason)
-    filtered = s.dynfilter is not FilterMode.OFF
+    filtered = options.dynfilter is not FilterMode.OFF
     report = run.metrics.report() | {"robot": robot.name} | walk.report(result.states[0], goal) | dict(
-        stood_s=round(stood.held(result.states[0].t), 3), single_support_s=s.single_support,
-        double_support_s=s.double_support, stabilizer=s.stabilize, push_recovery=s.recover_pushes,
+        stood_s=round(stood.held(result.states[0].t), 3), single_support_s=params.single_support,
+        double_support_s=params.double_support, stabilizer=options.stabilize, push_recovery=options.recover_pushes,
         push_recoveries=controller.push_recoveries, arms=s.arms.value,
-        dynfilter=s.dynfilter.value, dynfilter_passes=s.dynfilter_passes if filtered else 0,
-        dynfilter_fallbacks=controller.filter_fallbacks, dynfilter_worker=s.dynfilter_worker and filtered,
+        dynfilter=options.dynfilter.value, dynfilter_passes=options.dynfilter_passes if filtered else 0,
+        dynfilter_fallbacks=controller.filter_fallbacks, dynfilter_worker=options.dynfilter_worker and filtered,
         push_capture=capture.report()) | run.report(result, disturbances)
     log(f"fell: {str(report['fell']).lower()}  final base (x, y, yaw) {report['final_base_xy_yaw']} vs commanded "
         f"{report['commanded_base_xy_yaw']}  zmp_in_support_ratio {report['zmp_in_support_ratio']}  "

@@ -1,6 +1,6 @@
 """WholeBodyIK: the humanoid stack of tasks used by every controller.
 
-Levels (strict priority, DEVELOPERS.md pipeline step 4)::
+Levels (strict priority, docs/ik.md)::
 
     1. feet        left and right sole poses (6D each)
     2. balance     centre of mass (3D) and waist orientation
@@ -35,9 +35,19 @@ def hand_tool_dofs(robot: RobotModel) -> np.ndarray:
                      if any(h in model.supports[j] and h != j for h in hands)], dtype=int)
 
 
+def chain_dofs(robot: RobotModel, role: str) -> np.ndarray:
+    """Velocity indices of the joints from the floating base out to an operational frame's parent
+    joint (a leg for ``left_foot``, the torso joints for ``torso``), found in the kinematic tree:
+    no joint names, so that any robot's config serves."""
+    model = robot.pin
+    joint = model.frames[robot.frame_ids[role]].parentJoint
+    return np.array([model.joints[j].idx_v for j in model.supports[joint] if model.joints[j].idx_v >= 6], dtype=int)
+
+
 def upper_body_dofs(robot: RobotModel) -> np.ndarray:
-    """Velocity indices of every joint but the legs' (torso, arms, grippers, head)."""
-    return np.array([robot.v_index[i] for i, n in enumerate(robot.joint_names) if not n.startswith("leg_")], dtype=int)
+    """Velocity indices of every joint but the legs' (torso, arms, grippers, head), in joint order."""
+    legs = np.concatenate([chain_dofs(robot, f"{s}_foot") for s in SIDES])
+    return np.array([v for v in robot.v_index if v not in legs], dtype=int)
 
 
 #: A torso posture weight over the other joints' (``trunk_weight``) for tasks where the hands reach
@@ -72,8 +82,7 @@ class WholeBodyIK:
         self.hands = {s: FrameTask(f"{s}_hand", ids[f"{s}_hand"], axes=("x", "y", "z"), gain=gain) for s in SIDES}
         self.posture = PostureTask("posture", robot.q_index, robot.v_index, robot.pin.nv, gain=gain,
                                    weight=posture_weight)
-        self.posture.set_joint_weights(np.where([n.startswith("torso_") for n in robot.joint_names],
-                                                trunk_weight, 1.0))
+        self.posture.set_joint_weights(np.where(np.isin(robot.v_index, chain_dofs(robot, "torso")), trunk_weight, 1.0))
         self.solver = HierarchicalQP(
             [[self.feet["left"], self.feet["right"]], [self.com, self.waist],
              [self.hands["left"], self.hands["right"], self.posture]],

@@ -18,7 +18,7 @@ from robot_ctrl.robot.model import RobotModel
 from robot_ctrl.synthesis.demonstrations import SLOTS, DemonstrationSet
 from robot_ctrl.synthesis.lwr import LocallyWeightedRegression
 from robot_ctrl.synthesis.source_map import SourceMap, delay_rotations
-from robot_ctrl.synthesis.step_planning import ActionRanges
+from robot_ctrl.synthesis.step_planning import Action, ActionRanges
 from robot_ctrl.synthesis.stepwise import learn_stepwise, quality_table, resample_actions
 
 
@@ -26,7 +26,7 @@ from robot_ctrl.synthesis.stepwise import learn_stepwise, quality_table, resampl
 class ActionParams:
     """Parameters of one planned action: what the blending morphs."""
 
-    action: int  # 1 normal, 2 short with reach, 3 standing
+    action: Action
     length: float  # planned pelvis advance [m]
     duration: float  # [s]
     means: np.ndarray  # (C,) mean of each channel

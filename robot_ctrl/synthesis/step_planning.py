@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from enum import IntEnum
 
 import numpy as np
 
@@ -24,11 +25,20 @@ class ActionRanges:
     short: tuple[float, float]
 
 
+class Action(IntEnum):
+    """The walk-and-reach actions (thesis 3.8): gait cycles of two steps, then standing."""
+
+    ENDED = 0  # the sequence has ended (synthesis output only)
+    WALK = 1  # a normal gait cycle
+    SHORT = 2  # a short cycle that comes to rest, the arms starting to reach
+    STAND = 3  # standing: the left hand pulls the drawer open, the right reaches the object
+
+
 @dataclass(frozen=True)
 class StepPlan:
-    """Action types and their pelvis advances [m], in execution order; ends with action 3."""
+    """Action types and their pelvis advances [m], in execution order; ends with ``Action.STAND``."""
 
-    actions: tuple[int, ...]
+    actions: tuple[Action, ...]
     lengths: tuple[float, ...]
 
 
@@ -65,10 +75,10 @@ def plan_steps(distance: float, comfort: float, ranges: ActionRanges, gamma: flo
     rho = gamma / (1 - gamma)
     if after_short or R / (1 + rho) < lo1:
         k = max(1, math.ceil(R / hi2))
-        return StepPlan((2,) * k + (3,), (R / k,) * k + (0.0,))
+        return StepPlan((Action.SHORT,) * k + (Action.STAND,), (R / k,) * k + (0.0,))
     n = max(0, math.ceil(R / hi1 - 1 - rho))
     D1 = R / (n + 1 + rho)
-    return StepPlan((1,) * (n + 1) + (2, 3), (D1,) * (n + 1) + (R - (n + 1) * D1, 0.0))
+    return StepPlan((Action.WALK,) * (n + 1) + (Action.SHORT, Action.STAND), (D1,) * (n + 1) + (R - (n + 1) * D1, 0.0))
 
 
 def blend_weight(phi: float | np.ndarray, beta: float = BETA) -> float | np.ndarray:

@@ -31,7 +31,7 @@ import numpy as np
 
 from robot_ctrl.synthesis.oscillator import phase, rk4_step, star_coupled
 from robot_ctrl.synthesis.primitives import ActionParams, WalkReachPrimitives
-from robot_ctrl.synthesis.step_planning import BETA, blend_nonperiodic, blend_weight, plan_steps
+from robot_ctrl.synthesis.step_planning import BETA, Action, blend_nonperiodic, blend_weight, plan_steps
 
 TWO_PI = 2 * np.pi
 FOLLOWER_COUPLING = 10.0  # [1/s] star coupling of the source oscillators to the leader
@@ -59,7 +59,7 @@ class SynthesisOutput:
     pelvis_velocity: np.ndarray  # (vx, vy, ωz) in the pelvis heading frame [m/s, m/s, rad/s]
     upper_body_q: np.ndarray  # upper-body joint angles [rad], order of ``upper_body_joints``
     phase: float  # leader phase φ in [0, 2π) within the current action [rad]
-    action: int  # 1 normal, 2 short with reach, 3 standing; 0 once the sequence has ended
+    action: Action
 
     def __iter__(self):
         """``v, q, phase, action = synth.step(dt, goal)``."""
@@ -103,7 +103,7 @@ class _Blend:
 
 @dataclass
 class ExecutedAction:
-    action: int
+    action: Action
     planned_length: float
     start_progress: float
     end_progress: float | None = None
@@ -181,7 +181,7 @@ class Synthesizer:
             if last is None:
                 continue
             velocity[k], upper[k] = (last.pelvis_velocity, last.upper_body_q) if not c.finished else (0.0, last.upper_body_q)
-            action[k] = 0 if c.finished else last.action
+            action[k] = Action.ENDED if c.finished else last.action
         return SynthesisPreview(dt * np.arange(1, n + 1), velocity, upper, action)
 
     @property
@@ -201,7 +201,7 @@ class Synthesizer:
         kept_end = self.targets[keep - 1] if keep else 0.0
         previous = self.plan[keep - 1] if keep else None
         steps = plan_steps(goal.distance - kept_end, self.primitives.comfort_distance, self.primitives.ranges,
-                           after_short=previous is not None and previous.action == 2)
+                           after_short=previous is not None and previous.action is Action.SHORT)
         new, prev_len = [], previous.length if previous is not None else 0.0
         for action, length in zip(steps.actions, steps.lengths):
             new.append(self.primitives.action(action, length, goal.slot, prev_len))  # vx mean: solved below

@@ -1,18 +1,19 @@
 """WalkingPatternGenerator: gait state machine around the walking MPC, sampled at the control rate.
 
-Gait phases: ``stand`` (double support, indefinitely) → ``transfer`` (double support that moves
-the ZMP onto the first stance foot) → ``single`` support (the other foot swings to the MPC's
-first footstep) ↔ ``double`` support after each touch-down. A zero velocity reference while
-walking stops in two steps: the next footstep is still optimized, the one after it is placed
-beside it (``step_width`` apart, parallel), then the robot stands in double support with the ZMP
-reference moving to the middle of the feet. :meth:`stop_at` instead places those two last
+Gait phases (:class:`~robot_ctrl.wpg.plan.GaitPhase`): ``STAND`` (double support, indefinitely) →
+``TRANSFER`` (double support that moves the ZMP onto the first stance foot) → ``SINGLE`` support
+(the other foot swings to the MPC's first footstep) ↔ ``DOUBLE`` support after each touch-down.
+A zero velocity reference while walking stops in two steps: the next footstep is still optimized,
+the one after it is placed beside it (``step_width`` apart, parallel), then the robot stands in
+double support with the ZMP reference moving to the middle of the feet. :meth:`stop_at` instead places those two last
 footsteps at given positions, taking as many steps as the reach region requires (stopping at a
 goal pose).
 
 Every sample :meth:`update` solves the MPC from the generator's own planned CoM state
 (balance feedback acts on the controller side, which may move that state: :meth:`shift`,
 :meth:`add_com_velocity`) and advances the plan by one sample. :meth:`sample` interpolates it at
-any time inside the current sample.
+any time inside the current sample (a :class:`~robot_ctrl.wpg.plan.WalkReference`), :meth:`preview`
+gives the solved plan over the horizon (a :class:`~robot_ctrl.wpg.plan.PlanPreview`).
 All positions are in the world frame; the floor is z = 0.
 
 Gait timing can be stretched online: with :meth:`set_time_scale` ``s``, every gait duration of
@@ -28,12 +29,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robot_ctrl.geometry import GRAVITY, PlanarMove, other, rotation, wrap_angle
-from robot_ctrl.geometry.support_polygon import SupportPolygon
+from robot_ctrl.geometry import GRAVITY, PlanarMove, mean_yaw, other, rotation, wrap_angle
 from robot_ctrl.wpg.footstep import FootRef, Footstep
 from robot_ctrl.wpg.lipm import com_at, dcm, natural_frequency
 from robot_ctrl.wpg.mpc import MpcInfeasible, MpcProblem, MpcSolution, Reach, SampleSupport, WalkingMPC
 from robot_ctrl.wpg.params import WalkParams
+from robot_ctrl.wpg.plan import GaitPhase, PlanPreview, PreviewSample, SolePlan, Touchdown, WalkReference
+from robot_ctrl.wpg.segments import Segment, blend, midpoint, segment_at, support_halfplanes, swing_point
 from robot_ctrl.wpg.swing import SwingTrajectory
 
 #: [m] a foot this close to its stop footstep (in x and in y) is there: the plan follows the real
@@ -42,57 +44,25 @@ from robot_ctrl.wpg.swing import SwingTrajectory
 #: work.
 STOP_TOLERANCE = 0.01
 
-
-@dataclass(frozen=True)
-class WalkReference:
-    """The walking plan at one control instant (world frame)."""
-
-    t: float
-    com: np.ndarray  # (2,) [m]
-    com_velocity: np.ndarray  # (2,) [m/s]
-    com_acceleration: np.ndarray  # (2,) [m/s²]
-    zmp: np.ndarray  # (2,) ZMP of the cart-table model [m]
-    foot_position: dict[str, np.ndarray]  # side -> sole position (3,) [m]
-    foot_yaw: dict[str, float]  # [rad]
-    foot_velocity: dict[str, np.ndarray]  # side -> (linear (3,), yaw rate)
-    in_contact: dict[str, bool]
-    phase: str
+Landing = tuple[int, FootRef, FootRef | None]  # footstep variable index, the foot, the footstep it is fixed to
 
 
 @dataclass(frozen=True)
-class PreviewSample:
-    """The plan at one horizon sample (world frame)."""
+class _SolvedSample:
+    """The sample the MPC last solved, as it stood when solved: what :meth:`~WalkingPatternGenerator.sample`,
+    :meth:`~WalkingPatternGenerator.preview` and :meth:`~WalkingPatternGenerator.gait_phase` read."""
 
-    t: float  # [s] after the start of the last solved sample (physical time)
-    com: np.ndarray  # (2,) [m]
-    zmp: np.ndarray  # (2,) cart-table ZMP [m]
-    feet: dict[str, tuple[np.ndarray, float]]  # side -> sole position (3,) [m], yaw [rad]
-    single_support: bool
-
-
-@dataclass
-class Touchdown:
-    """A footstep when it lands: the plan's target; the controller adds where the foot really was."""
-
-    t: float
-    planned: Footstep
-    realized: Footstep | None = None
-
-
-@dataclass
-class _Segment:
-    duration: float  # [s] (inf for standing)
-    feet: list[FootRef]  # one (single support) or two (double support)
-    zmp_from: FootRef | None  # ZMP reference moves linearly from this …
-    zmp_to: FootRef | None = None  # … to this over the segment (None: stays at zmp_from)
-
-
-def _midpoint(a: FootRef, b: FootRef) -> FootRef:
-    return FootRef(a.side, a.yaw, (a.offset + b.offset) / 2, (a.S + b.S) / 2)
-
-
-def _blend(a: FootRef, b: FootRef, s: float) -> FootRef:
-    return FootRef(b.side, b.yaw, (1 - s) * a.offset + s * b.offset, (1 - s) * a.S + s * b.S)
+    com_x: np.ndarray  # (3,) CoM position, velocity, acceleration at the sample's start [m, m/s, m/s²]
+    com_y: np.ndarray
+    jerk_x: float  # [m/s³] over the sample
+    jerk_y: float
+    phase: GaitPhase
+    phase_time: float  # [s] nominal time into the phase
+    stance: str
+    swing: SwingTrajectory | None
+    time_scale: float
+    steps_started: int
+    segments: tuple[Segment, ...]  # the support segments over the horizon
 
 
 class WalkingPatternGenerator:
@@ -106,8 +76,8 @@ class WalkingPatternGenerator:
         self.com_x = np.array([com_xy[0], 0.0, 0.0])
         self.com_y = np.array([com_xy[1], 0.0, 0.0])
         self.feet = {"left": left, "right": right}
-        self.heading = float(np.arctan2(np.sin(left.yaw) + np.sin(right.yaw), np.cos(left.yaw) + np.cos(right.yaw)))
-        self.phase = "stand"
+        self.heading = mean_yaw([left.yaw, right.yaw])
+        self.phase = GaitPhase.STAND
         self.phase_time = 0.0
         self.stance = "right"
         self.steps_to_stop = 0  # landings left before standing (0: not stopping)
@@ -122,8 +92,8 @@ class WalkingPatternGenerator:
         self.time_scale = 1.0  # physical / nominal duration of the gait, for the next samples
         self.steps_started = 0  # single-support phases begun so far
         self._retarget_late = False  # the next update may move the landing inside swing_freeze
-        self._sample_state = (self.com_x.copy(), self.com_y.copy(), 0.0, 0.0)
-        self._sample_phase = (self.phase, 0.0, self.stance, None, 1.0, 0)
+        self._solved = _SolvedSample(self.com_x.copy(), self.com_y.copy(), 0.0, 0.0, self.phase, 0.0, self.stance,
+                                     None, 1.0, 0, ())
 
     # Reference --------------------------------------------------------------------------------
     def set_velocity(self, vx: float, vy: float, wz: float) -> None:
@@ -132,12 +102,12 @@ class WalkingPatternGenerator:
         if not np.all(np.isfinite(v)):
             raise ValueError(f"velocity reference must be finite, got {v}")
         moving = bool(np.any(np.abs(v) > 1e-6))
-        if moving and self.phase == "stand":
+        if moving and self.phase is GaitPhase.STAND:
             self.stance = "left" if (vy < 0 or (vy == 0 and wz < 0)) else "right"
-            self.phase, self.phase_time = "transfer", 0.0
-        elif not moving and self.phase == "transfer":
-            self.phase, self.phase_time = "stand", 0.0
-        elif not moving and self.phase in ("single", "double") and self.steps_to_stop == 0:
+            self.phase, self.phase_time = GaitPhase.TRANSFER, 0.0
+        elif not moving and self.phase is GaitPhase.TRANSFER:
+            self.phase, self.phase_time = GaitPhase.STAND, 0.0
+        elif not moving and self.phase.stepping and self.steps_to_stop == 0:
             self.steps_to_stop = 2
         elif moving and self.steps_to_stop:
             self.steps_to_stop = 0
@@ -171,38 +141,39 @@ class WalkingPatternGenerator:
 
     @property
     def standing(self) -> bool:
-        return self.phase == "stand"
+        return self.phase is GaitPhase.STAND
 
     # Horizon ----------------------------------------------------------------------------------
-    def _segments(self) -> tuple[list[_Segment], list[tuple[int, FootRef, FootRef | None]]]:
+    def _segments(self) -> tuple[list[Segment], list[Landing]]:
         """Support segments from now over the horizon, and the landings (index, foot, fixed-to)."""
         p = self.p
         known = {side: FootRef.known(step) for side, step in self.feet.items()}
-        segments: list[_Segment] = []
-        landings: list[tuple[int, FootRef, FootRef | None]] = []
+        segments: list[Segment] = []
+        landings: list[Landing] = []
         left, right = known["left"], known["right"]
-        remaining = {"transfer": p.start_transfer, "single": p.single_support, "double": p.double_support}
-        if self.phase == "stand":
-            zmp_from = self.settle_from or _midpoint(left, right)
-            segments.append(_Segment(max(p.start_transfer - self.phase_time, 0.0), [left, right], zmp_from,
-                                     _midpoint(left, right)))
-            segments.append(_Segment(np.inf, [left, right], _midpoint(left, right)))
+        remaining = {GaitPhase.TRANSFER: p.start_transfer, GaitPhase.SINGLE: p.single_support,
+                     GaitPhase.DOUBLE: p.double_support}
+        if self.phase is GaitPhase.STAND:
+            zmp_from = self.settle_from or midpoint(left, right)
+            segments.append(Segment(max(p.start_transfer - self.phase_time, 0.0), [left, right], zmp_from,
+                                     midpoint(left, right)))
+            segments.append(Segment(np.inf, [left, right], midpoint(left, right)))
             return segments, landings
         stance = known[self.stance]
         left_in_phase = remaining[self.phase] - self.phase_time
-        if self.phase == "transfer":
-            mid = _midpoint(left, right)
-            start = _blend(mid, stance, self.phase_time / p.start_transfer)
-            segments.append(_Segment(left_in_phase, [left, right], start, stance))
-            segments.append(_Segment(p.single_support, [stance], stance))
+        if self.phase is GaitPhase.TRANSFER:
+            mid = midpoint(left, right)
+            start = blend(mid, stance, self.phase_time / p.start_transfer)
+            segments.append(Segment(left_in_phase, [left, right], start, stance))
+            segments.append(Segment(p.single_support, [stance], stance))
             t_land = left_in_phase + p.single_support
-        elif self.phase == "single":
-            segments.append(_Segment(left_in_phase, [stance], stance))
+        elif self.phase is GaitPhase.SINGLE:
+            segments.append(Segment(left_in_phase, [stance], stance))
             t_land = left_in_phase
         else:  # double: the stance foot has just landed, the previous one is still down
             prev = known[other(self.stance)]
-            segments.append(_Segment(left_in_phase, [prev, stance], prev, stance))
-            segments.append(_Segment(p.single_support, [stance], stance))
+            segments.append(Segment(left_in_phase, [prev, stance], prev, stance))
+            segments.append(Segment(p.single_support, [stance], stance))
             t_land = left_in_phase + p.single_support
         horizon = p.sample_time * p.horizon
         previous = stance
@@ -220,10 +191,10 @@ class WalkingPatternGenerator:
             foot = fixed if fixed is not None else FootRef.variable(index, side, float(yaw))
             landings.append((index, FootRef.variable(index, side, foot.yaw), fixed))
             if final:
-                segments.append(_Segment(np.inf, [previous, foot], previous, _midpoint(previous, foot)))
+                segments.append(Segment(np.inf, [previous, foot], previous, midpoint(previous, foot)))
                 return segments, landings
-            segments.append(_Segment(p.double_support, [previous, foot], previous, foot))
-            segments.append(_Segment(p.single_support, [foot], foot))
+            segments.append(Segment(p.double_support, [previous, foot], previous, foot))
+            segments.append(Segment(p.single_support, [foot], foot))
             previous = foot
             t_land += p.step_period
             index += 1
@@ -245,27 +216,25 @@ class WalkingPatternGenerator:
                 and abs(wrap_angle(foot.yaw - goal.yaw)) < 1e-6)
 
     def problem(self) -> MpcProblem:
+        """The MPC problem of the current sample, from the plan's own CoM state."""
+        return self._problem(*self._segments())
+
+    def _problem(self, segments: list[Segment], landings: list[Landing]) -> MpcProblem:
         p = self.p
-        segments, landings = self._segments()
-        self._planned_segments = segments
-        self._landing_yaws = [foot.yaw for _, foot, _ in landings]
         half = np.array([p.foot_length / 2 - p.zmp_margin, p.foot_width / 2 - p.zmp_margin])
         supports = []
         polygons: dict[tuple[int, bool], tuple] = {}  # (segment, second half) -> (H, h, anchor)
         velocity = np.zeros((p.horizon, 2))
         for j in range(p.horizon):
             t = (j + 1) * p.sample_time  # nominal
-            start = 0.0
-            for seg in segments:
-                if t <= start + seg.duration + 1e-9 or seg is segments[-1]:
-                    break
-                start += seg.duration
+            k, start = segment_at(segments, t)
+            seg = segments[k]
             s = 1.0 if not np.isfinite(seg.duration) or seg.duration == 0 else (t - start) / seg.duration
             s = min(max(s, 0.0), 1.0)
             key = (id(seg), s >= 0.5)
             if key not in polygons:
-                polygons[key] = _polygon(seg, s, half)
-            zmp_ref = seg.zmp_from if seg.zmp_to is None else _blend(seg.zmp_from, seg.zmp_to, s)
+                polygons[key] = support_halfplanes(seg, s, half)
+            zmp_ref = seg.zmp_from if seg.zmp_to is None else blend(seg.zmp_from, seg.zmp_to, s)
             supports.append(SampleSupport(*polygons[key], zmp_ref))
             heading = self.heading + self.velocity[2] * t * self.time_scale
             velocity[j] = rotation(heading) @ self.velocity[:2]
@@ -328,25 +297,27 @@ class WalkingPatternGenerator:
     # Stepping ---------------------------------------------------------------------------------
     def update(self) -> MpcSolution:
         """Solve the MPC for the current sample and advance the plan by one sample."""
-        prob = self.problem()
+        segments, landings = self._segments()
         t0 = time.perf_counter()
         try:
-            sol = self.mpc.solve(prob)
+            sol = self.mpc.solve(self._problem(segments, landings))
         except MpcInfeasible:
             if self.stop_feet is None:
                 raise
             self.stop_feet = None  # the requested stop footsteps are not reachable: stop where possible
-            prob = self.problem()
-            sol = self.mpc.solve(prob)
+            segments, landings = self._segments()
+            sol = self.mpc.solve(self._problem(segments, landings))
         self.solve_times.append(time.perf_counter() - t0)
         self.solution = sol
         late, self._retarget_late = self._retarget_late, False
-        if self.phase == "single" and (late or self.phase_time < self.p.single_support - self.p.swing_freeze - 1e-9):
-            self.swing.retarget(self.phase_time, Footstep(other(self.stance), *sol.footsteps[:2], self._landing_yaws[0]))
-        self._sample_state = (self.com_x.copy(), self.com_y.copy(), float(sol.jerk_x[0]), float(sol.jerk_y[0]))
-        self._preview_segments = self._planned_segments
+        retarget_until = self.p.single_support - self.p.swing_freeze - 1e-9
+        if self.phase is GaitPhase.SINGLE and (late or self.phase_time < retarget_until):
+            landing_yaw = landings[0][1].yaw
+            self.swing.retarget(self.phase_time, Footstep(other(self.stance), *sol.footsteps[:2], landing_yaw))
+        self._solved = _SolvedSample(self.com_x.copy(), self.com_y.copy(), float(sol.jerk_x[0]), float(sol.jerk_y[0]),
+                                     self.phase, self.phase_time, self.stance, self.swing, self.time_scale,
+                                     self.steps_started, tuple(segments))
         T = self._last_duration = self.sample_duration
-        self._sample_phase = (self.phase, self.phase_time, self.stance, self.swing, self.time_scale, self.steps_started)
         self.com_x = com_at(self.com_x, sol.jerk_x[0], T)
         self.com_y = com_at(self.com_y, sol.jerk_y[0], T)
         self.heading += self.velocity[2] * T
@@ -358,9 +329,9 @@ class WalkingPatternGenerator:
         """Advance the gait state machine by ``T`` nominal seconds (``self.t`` is already the new time)."""
         p = self.p
         self.phase_time += T
-        if self.phase == "transfer" and self.phase_time >= p.start_transfer - 1e-9:
+        if self.phase is GaitPhase.TRANSFER and self.phase_time >= p.start_transfer - 1e-9:
             self._start_single()
-        elif self.phase == "single" and self.phase_time >= p.single_support - 1e-9:
+        elif self.phase is GaitPhase.SINGLE and self.phase_time >= p.single_support - 1e-9:
             landed = self.swing.landing
             self.feet[landed.side] = landed
             self.touchdowns.append(Touchdown(self.t, landed))
@@ -370,129 +341,86 @@ class WalkingPatternGenerator:
             else:
                 done = self.steps_to_stop == 1
             if done:
-                self.phase, self.phase_time, self.steps_to_stop = "stand", 0.0, 0
+                self.phase, self.phase_time, self.steps_to_stop = GaitPhase.STAND, 0.0, 0
                 self.stop_feet = None
                 self.settle_from = FootRef.known(self.feet[other(landed.side)])
             else:
                 self.steps_to_stop = max(self.steps_to_stop - 1, 0)
-                self.phase, self.phase_time = "double", 0.0
+                self.phase, self.phase_time = GaitPhase.DOUBLE, 0.0
                 if p.double_support <= 1e-9:
                     self._start_single()
-        elif self.phase == "double" and self.phase_time >= p.double_support - 1e-9:
+        elif self.phase is GaitPhase.DOUBLE and self.phase_time >= p.double_support - 1e-9:
             self._start_single()
 
     def _start_single(self) -> None:
         swing = other(self.stance)
-        self.phase, self.phase_time = "single", 0.0
+        self.phase, self.phase_time = GaitPhase.SINGLE, 0.0
         self.steps_started += 1
         self.swing = SwingTrajectory(self.feet[swing], self.p.single_support, self.p.swing_apex)
 
     # Sampling ---------------------------------------------------------------------------------
-    def preview(self) -> list[PreviewSample]:
+    def preview(self) -> PlanPreview:
         """The last solved plan at the horizon's sample boundaries ``j T`` (j = 0..N) after the start
         of the last solved sample: CoM, cart-table ZMP and feet (world frame). Feet of steps after
         the current swing follow a rest-to-rest quintic from lift-off to the MPC's footstep with the
         swing apex bump (the trajectory :class:`SwingTrajectory` starts with); the current swing is
         its own trajectory."""
-        sol, p = self.solution, self.p
-        cx, cy, _, _ = self._sample_state
+        sol, p, solved = self.solution, self.p, self._solved
         h_g = p.com_height / GRAVITY
-        phase, phase_time, stance, swing, scale, _ = self._sample_phase
-        segments = self._preview_segments
+        segments = list(solved.segments)
         out = []
         for j in range(p.horizon + 1):
             if j == 0:
+                cx, cy = solved.com_x, solved.com_y
                 com, zmp = np.array([cx[0], cy[0]]), np.array([cx[0] - h_g * cx[2], cy[0] - h_g * cy[2]])
             else:
                 com, zmp = sol.com[j - 1], sol.zmp[j - 1]
             t = j * p.sample_time  # nominal
-            start = 0.0
-            for k, seg in enumerate(segments):
-                if t <= start + seg.duration + 1e-9 or k == len(segments) - 1:
-                    break
-                start += seg.duration
-            feet = {f.side: (np.array([*f.position(sol.footsteps), 0.0]), f.yaw) for f in seg.feet}
+            k, start = segment_at(segments, t)
+            seg = segments[k]
+            feet = {f.side: SolePlan(np.array([*f.position(sol.footsteps), 0.0]), f.yaw) for f in seg.feet}
             if len(seg.feet) == 1:
                 side = other(seg.feet[0].side)
-                if k == 0 and phase == "single":
-                    pos, yaw, _, _ = swing.at(phase_time + t)
-                    feet[side] = (pos, yaw)
+                if k == 0 and solved.phase is GaitPhase.SINGLE:
+                    pos, yaw, _, _ = solved.swing.at(solved.phase_time + t)
+                    feet[side] = SolePlan(pos, yaw)
                 else:
-                    feet[side] = _swing_point(segments, k, side, sol.footsteps, (t - start) / seg.duration,
-                                              p.swing_apex, self.feet[side])
-            out.append(PreviewSample(j * p.sample_time * scale, com, zmp, feet, len(seg.feet) == 1))
-        return out
+                    feet[side] = SolePlan(*swing_point(segments, k, side, sol.footsteps, (t - start) / seg.duration,
+                                                       p.swing_apex, self.feet[side]))
+            out.append(PreviewSample(j * p.sample_time * solved.time_scale, com, zmp, feet, len(seg.feet) == 1))
+        return PlanPreview(self.sample_start, self._last_duration, tuple(out))
 
     def gait_phase(self, tau: float) -> float | None:
         """Gait phase [rad] ``tau`` physical seconds after the start of the last solved sample: π per
         step, counted from the start of the first single support (2π per gait cycle of two steps);
         None before the first step."""
-        phase, phase_time, _, _, scale, steps = self._sample_phase
-        if steps == 0 or phase not in ("single", "double"):
+        solved = self._solved
+        if solved.steps_started == 0 or not solved.phase.stepping:
             return None
-        elapsed = phase_time + tau / scale + (self.p.single_support if phase == "double" else 0.0)
-        return np.pi * (steps - 1 + elapsed / self.p.step_period)
+        elapsed = (solved.phase_time + tau / solved.time_scale
+                   + (self.p.single_support if solved.phase is GaitPhase.DOUBLE else 0.0))
+        return np.pi * (solved.steps_started - 1 + elapsed / self.p.step_period)
 
     def sample(self, tau: float) -> WalkReference:
         """The plan ``tau`` physical seconds (0 ≤ tau ≤ sample duration) after the start of the last
         solved sample."""
-        cx, cy, jx, jy = self._sample_state
-        sx, sy = com_at(cx, jx, tau), com_at(cy, jy, tau)
+        solved = self._solved
+        sx, sy = com_at(solved.com_x, solved.jerk_x, tau), com_at(solved.com_y, solved.jerk_y, tau)
         h_g = self.p.com_height / GRAVITY
-        phase, phase_time, stance, swing, scale, _ = self._sample_phase
-        positions, yaws, velocities, contact = {}, {}, {}, {}
+        scale = solved.time_scale
+        feet, contact = {}, {}
         for side in ("left", "right"):
-            if phase == "single" and side != stance:
-                pos, yaw, vel, wz = swing.at(phase_time + tau / scale)  # the swing runs on nominal time
-                positions[side], yaws[side], velocities[side], contact[side] = pos, yaw, (vel / scale, wz / scale), False
+            if solved.phase is GaitPhase.SINGLE and side != solved.stance:
+                pos, yaw, vel, wz = solved.swing.at(solved.phase_time + tau / scale)  # on nominal time
+                feet[side], contact[side] = SolePlan(pos, yaw, vel / scale, wz / scale), False
             else:
                 step = self.feet[side]
-                positions[side] = np.array([step.x, step.y, 0.0])
-                yaws[side], velocities[side], contact[side] = step.yaw, (np.zeros(3), 0.0), True
+                feet[side], contact[side] = SolePlan(np.array([step.x, step.y, 0.0]), step.yaw), True
         return WalkReference(
             t=self.sample_start + tau,
             com=np.array([sx[0], sy[0]]), com_velocity=np.array([sx[1], sy[1]]),
             com_acceleration=np.array([sx[2], sy[2]]),
             zmp=np.array([sx[0] - h_g * sx[2], sy[0] - h_g * sy[2]]),
-            foot_position=positions, foot_yaw=yaws, foot_velocity=velocities, in_contact=contact, phase=phase,
+            feet=feet, in_contact=contact, phase=solved.phase,
         )
 
-
-def _swing_point(segments: list[_Segment], k: int, side: str, F: np.ndarray, s: float, apex: float,
-                 fallback: Footstep) -> tuple[np.ndarray, float]:
-    """Swing foot ``side`` at fraction ``s`` of single-support segment ``k``: from where it stood in
-    the segment before to where it lands in the segment after (min-jerk in the plane and yaw,
-    ``16 apex s²(1 − s)²`` in height). A landing the plan does not hold yet (beyond its footstep
-    variables) repeats the last step: the lift foot mirrored through the stance foot's heading line
-    and carried the step's length ahead, so the preview's legs keep up with its CoM."""
-    def where(seg):
-        return next(((f.position(F), f.yaw) for f in seg.feet if f.side == side), None)
-
-    lift = where(segments[k - 1]) if k > 0 else None
-    land = where(segments[k + 1]) if k + 1 < len(segments) else None
-    lift = lift or (fallback.xy, fallback.yaw)
-    if land is None:
-        stance = segments[k].feet[0]
-        R = rotation(stance.yaw)
-        step = R.T @ (stance.position(F) - lift[0])  # lift → stance, in the stance foot's frame
-        land = (stance.position(F) + R @ np.array([step[0], -step[1]]), stance.yaw)
-    s = min(max(s, 0.0), 1.0)
-    blend = s**3 * (10 - 15 * s + 6 * s * s)
-    xy = lift[0] + blend * (land[0] - lift[0])
-    yaw = lift[1] + blend * wrap_angle(land[1] - lift[1])
-    return np.array([xy[0], xy[1], 16.0 * apex * s * s * (1 - s) ** 2]), float(yaw)
-
-
-def _polygon(seg: _Segment, s: float, half: np.ndarray) -> tuple[np.ndarray, np.ndarray, FootRef]:
-    """Support half-planes ``H (z − anchor) ≤ h`` of a segment at fraction ``s`` of it."""
-    if len(seg.feet) == 2 and not seg.feet[0].same_anchor(seg.feet[1]):
-        # Double support towards a foot that is still a decision variable: the hull would not be
-        # linear in it, so the ZMP is kept in the rear foot for the first half, in the front one after
-        # (a subset of the hull).
-        feet = [seg.feet[0] if s < 0.5 else seg.feet[1]]
-    else:
-        feet = seg.feet
-    anchor = feet[0]
-    soles = [(f.offset - anchor.offset, f.yaw) for f in feet]
-    H, h = SupportPolygon.of_soles(soles, 2 * half[0], 2 * half[1]).halfplanes
-    return H, h, anchor

@@ -1,0 +1,82 @@
+"""What the walking pattern generator gives the stages after it: the gait phase, the plan at one
+control instant, the plan over the MPC's horizon (what the dynamic filter previews), and each
+touch-down. Plain values, world frame, SI units; the floor is z = 0."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from enum import Enum
+
+import numpy as np
+
+from robot_ctrl.wpg.footstep import Footstep
+
+
+class GaitPhase(str, Enum):
+    """``STAND`` (double support, indefinitely) → ``TRANSFER`` (double support that moves the ZMP
+    onto the first stance foot) → ``SINGLE`` support (the other foot swings) ↔ ``DOUBLE`` support
+    after each touch-down."""
+
+    STAND = "stand"
+    TRANSFER = "transfer"
+    SINGLE = "single"
+    DOUBLE = "double"
+
+    @property
+    def stepping(self) -> bool:
+        """A step is under way (single support, or the double support between two steps)."""
+        return self in (GaitPhase.SINGLE, GaitPhase.DOUBLE)
+
+
+@dataclass(frozen=True)
+class SolePlan:
+    """A sole's planned pose and velocity (world frame; the sole frame's origin, z = 0 on the floor)."""
+
+    position: np.ndarray  # (3,) [m]
+    yaw: float  # [rad]
+    velocity: np.ndarray = field(default_factory=lambda: np.zeros(3))  # (3,) [m/s]
+    yaw_rate: float = 0.0  # [rad/s]
+
+
+@dataclass(frozen=True)
+class WalkReference:
+    """The walking plan at one control instant (world frame)."""
+
+    t: float  # [s]
+    com: np.ndarray  # (2,) [m]
+    com_velocity: np.ndarray  # (2,) [m/s]
+    com_acceleration: np.ndarray  # (2,) [m/s²]
+    zmp: np.ndarray  # (2,) ZMP of the cart-table model [m]
+    feet: dict[str, SolePlan]  # side -> the sole's plan
+    in_contact: dict[str, bool]
+    phase: GaitPhase
+
+
+@dataclass(frozen=True)
+class PreviewSample:
+    """The plan at one horizon sample (world frame)."""
+
+    t: float  # [s] after the start of the solved sample (physical time)
+    com: np.ndarray  # (2,) [m]
+    zmp: np.ndarray  # (2,) cart-table ZMP [m]
+    feet: dict[str, SolePlan]  # side -> the sole's pose (its velocity is not previewed)
+    single_support: bool
+
+
+@dataclass(frozen=True)
+class PlanPreview:
+    """The plan the MPC just solved, at its horizon's sample boundaries: what the dynamic filter
+    corrects. ``samples[j]`` is ``j`` samples after ``t0``."""
+
+    t0: float  # [s] start of the solved sample (controller time)
+    sample_duration: float  # [s] physical duration of one sample
+    samples: tuple[PreviewSample, ...]
+
+
+@dataclass
+class Touchdown:
+    """A footstep when it lands: the plan's target; the controller adds where the foot really was."""
+
+    t: float  # [s]
+    planned: Footstep
+    realized: Footstep | None = None
