@@ -55,4 +55,21 @@ class HardwareKind(_Mode):
         return self in (HardwareKind.MIT_CAN, HardwareKind.DYNAMIXEL)
 
 
-_OPTION = {FilterMode: "dynfilter", ArmMotion: "arms", BaseState: "base-state", HardwareKind: "hw"}  # the option each is chosen by
+class SpeedClass(_Mode):
+    """How fast the walk-and-reach sequence is played: the synthesis's clock runs ``scale`` times
+    the learned one, so every action lasts 1/scale of its learned duration and the pelvis moves
+    ``scale`` times as fast over the same lengths (the gait's steps shorten with it, their lengths
+    kept). The scalings are the thesis's (3.3.2: 0.8, 0.92 and 1.2, its slow, middle and fast
+    trials of Table 3.1); ``nominal`` plays the learned timing."""
+
+    SLOW = "slow"
+    MIDDLE = "middle"
+    NOMINAL = "nominal"
+    FAST = "fast"
+
+    @property
+    def scale(self) -> float:
+        return {"slow": 0.8, "middle": 0.92, "nominal": 1.0, "fast": 1.2}[self.value]
+
+
+_OPTION = {FilterMode: "dynfilter", ArmMotion: "arms", BaseState: "base-state", HardwareKind: "hw", SpeedClass: "speed"}  # the option each is chosen by

@@ -15,7 +15,8 @@ from robot_ctrl import cli
 
 INVALID = ("nan", "inf", "-inf", "")
 EDGE = ("-1", "0", "1e9")
-NEEDS = {("synth",): ["--distance", "1.5"], ("crowd", "run"): ["--k", "1"], ("report",): ["/nonexistent-run"]}
+NEEDS = {("synth",): ["--distance", "1.5"], ("crowd", "run"): ["--k", "1"], ("report",): ["/nonexistent-run"],
+         ("campaign",): ["--n", "2"]}
 
 
 class Started(Exception):
@@ -64,6 +65,7 @@ def run(argv):
 def no_work(monkeypatch):
     import robot_ctrl.crowd.audit as audit
     import robot_ctrl.crowd.experiments as experiments
+    import robot_ctrl.eval.campaign_backends as campaign_backends
     import robot_ctrl.hw.hardware as hardware
     import robot_ctrl.scenarios.group_walk as group_walk
     import robot_ctrl.scenarios.walk_reach_synthesis as synthesis
@@ -75,7 +77,7 @@ def no_work(monkeypatch):
     for module, name in ((hardware, "open_hardware"), (hardware, "open_group_hardware"),
                          (group_walk, "open_group_hardware"), (experiments, "run_group"),
                          (experiments, "rate_slopes"), (audit, "audit"), (synthesis, "load_primitives"),
-                         (demonstrations, "generate_demonstrations")):
+                         (demonstrations, "generate_demonstrations"), (campaign_backends, "open_backend")):
         monkeypatch.setattr(module, name, start)
 
 

@@ -3,12 +3,13 @@
 import json
 
 from robot_ctrl.cli import main
+from robot_ctrl.eval.campaign_backends import LocalBackend
 from robot_ctrl.eval.robustness_report import render_robustness
 from robot_ctrl.scenarios.robustness import run_robustness
 
 
 def test_a_small_campaign(tmp_path):
-    result = run_robustness(tmp_path, jobs=2, directions=(-90,), phases=("single_mid",),
+    result = run_robustness(tmp_path, LocalBackend(2), directions=(-90,), phases=("single_mid",),
                             magnitudes=(0.2, 2.0), mismatch={"latency 10 ms": ("--latency-ms", "10")},
                             log=lambda _: None, progress=False)
     # 0.2 N·s/kg to the right mid-step is survived, 2 N·s/kg is not: the largest survived is 0.2.
@@ -18,9 +19,9 @@ def test_a_small_campaign(tmp_path):
     assert cell == {"direction_deg": -90, "phase": "single_mid", "impulse_ns_per_kg": 0.2,
                     "final_position_error_m": ended, "lip_capturable_ns_per_kg": bound,
                     "lip_capturable_own_timing_ns_per_kg": own}
-    survived = json.loads((tmp_path / "push_single_mid_-90_0.2" / "report.json").read_text())
+    survived = json.loads((tmp_path / "trials" / "push_single_mid_-90_0.2" / "report.json").read_text())
     assert ended == survived["final_position_error_m"] < 0.05
-    pushed = json.loads((tmp_path / "push_single_mid_-90_2.0" / "report.json").read_text())
+    pushed = json.loads((tmp_path / "trials" / "push_single_mid_-90_2.0" / "report.json").read_text())
     assert pushed["fell"] is True and pushed["disturbances"]["pushes"][0]["impulse_ns_per_kg"] == 2.0
     # Mid-step on the right foot, pushed right: only the right sole's outer edge can catch it (the feet
     # do not cross), from a DCM a few centimetres inside that edge: a bound between the two pushes.

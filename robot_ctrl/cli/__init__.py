@@ -7,7 +7,7 @@ import signal
 import sys
 import threading
 
-from robot_ctrl.cli import crowd, hw, robot_runs, synth, tools
+from robot_ctrl.cli import campaign, crowd, hw, robot_runs, synth, tools
 from robot_ctrl.cli.options import robot_parent
 from robot_ctrl.cli.simulation import simulation_parent
 from robot_ctrl.robot.config import ConfigError
@@ -24,6 +24,7 @@ def build_parser() -> argparse.ArgumentParser:
     robot_runs.add_scenario_parsers(sub, sim)
     crowd.add_parsers(sub, sim)
     robot_runs.add_robustness_parser(sub)
+    campaign.add_parsers(sub)
     synth.add_parsers(sub, robot)
     hw.add_parsers(sub, robot)
     tools.add_parsers(sub)

@@ -45,15 +45,19 @@ RANGES: dict[tuple[str, str], tuple[float, float]] = {
     ("crowd figure", "--runs"): (1, 1000),
     ("crowd gait-profile", "--speed"): (0.05, 0.3),
     ("crowd gait-profile", "--cycles"): (2, 50),
+    ("campaign", "--n"): (1, 10000),
+    ("campaign", "--seed"): (0, 2**32 - 1),
+    ("campaign", "--jobs"): (1, 256),
+    ("campaign", "--timeout"): (10.0, 86400.0),
 }
 
 
 def check_ranges(command: str, args: argparse.Namespace) -> None:
     """Refuse, with one line, the first option of ``command`` outside its range in :data:`RANGES`
-    (NaN is outside every range)."""
+    (NaN is outside every range; an option not given is not checked)."""
     for (cmd, option), (lo, hi) in RANGES.items():
         value = getattr(args, option.lstrip("-").replace("-", "_")) if cmd == command else lo
-        if not lo <= value <= hi:
+        if value is not None and not lo <= value <= hi:
             raise ConfigError(f"{command}: {option} {value} is outside the allowed range [{lo:g}, {hi:g}]")
 
 

@@ -17,7 +17,7 @@ from robot_ctrl.cli.options import (
     time_distance,
 )
 from robot_ctrl.cli.simulation import base_state_of, finish, on_the_robot, parse_disturbances, simulation
-from robot_ctrl.modes import ArmMotion, FilterMode
+from robot_ctrl.modes import ArmMotion, FilterMode, SpeedClass
 from robot_ctrl.robot.config import ConfigError
 
 
@@ -68,7 +68,8 @@ def _drawer(args: argparse.Namespace) -> int:
     from robot_ctrl.scenarios.walk_reach_synthesis import load_demonstrations, load_primitives
 
     jumps = tuple(time_distance(j, "--goal-jump") for j in args.goal_jump)
-    task = DrawerTask(args.distance, args.slot, jumps, FilterMode(args.dynfilter), base_state=base_state_of(args))
+    task = DrawerTask(args.distance, args.slot, jumps, FilterMode(args.dynfilter), base_state=base_state_of(args),
+                      speed=SpeedClass(args.speed))
     parse_disturbances(args)
     robot = load_robot(args.robot)
     try:  # before anything is learned or started
@@ -90,6 +91,7 @@ def _drawer(args: argparse.Namespace) -> int:
 
 
 def _robustness(args: argparse.Namespace) -> int:
+    from robot_ctrl.eval.campaign_backends import open_backend
     from robot_ctrl.scenarios import robustness
 
     check_ranges("robustness", args)
@@ -98,7 +100,11 @@ def _robustness(args: argparse.Namespace) -> int:
     if args.quick:  # a smoke test of the campaign: two directions, one phase, two magnitudes
         grid = dict(directions=(0, -90), phases=("single_mid",), magnitudes=(0.1, 0.2),
                     mismatch={k: robustness.MISMATCH[k] for k in ("mass ×1.15", "latency 10 ms")})
-    robustness.run_robustness(args.out, args.jobs, log=log_line, progress=not args.quiet, single=single, double=double,
+    try:
+        backend = open_backend(args.backend, args.jobs, args.address)
+    except ValueError as exc:
+        raise ConfigError(f"robustness: {exc}") from exc
+    robustness.run_robustness(args.out, backend, log=log_line, progress=not args.quiet, single=single, double=double,
                               **grid)
     return 0
 
@@ -159,6 +165,9 @@ def _add_drawer(sub, sim) -> None:
                    help="at TIME [s] the cabinet moves to DISTANCE [m]; the synthesis replans (repeatable)")
     p.add_argument("--dynfilter", choices=[m.value for m in FilterMode], default=FilterMode.FULL.value,
                    help="dynamic filter: off, legs only, or full body (default)")
+    p.add_argument("--speed", choices=[m.value for m in SpeedClass], default=SpeedClass.NOMINAL.value,
+                   help="speed class: the synthesized sequence played at 0.8 (slow), 0.92 (middle), 1.0 (nominal) "
+                        "or 1.2 (fast) times its learned timing (thesis 3.3.2, Table 3.1)")
     base_state_arg(p)
     p.add_argument("--out", type=Path, help="write DIR/report.json, DIR/timeseries.npz and DIR/report.html")
     log_arg(p)
@@ -173,6 +182,10 @@ def add_robustness_parser(sub) -> None:
                                    "report under DIR.")
     p.add_argument("--out", type=Path, default=Path("runs/robustness"), help="output folder")
     p.add_argument("--jobs", type=int, default=2, help="walks run at a time, 1..64")
+    p.add_argument("--backend", choices=("local", "ray"), default="local",
+                   help="local: this machine's processes; ray: a Ray cluster (--address) or a Ray instance "
+                        "started here (docs/campaigns.md)")
+    p.add_argument("--address", help="with --backend ray: the cluster's head")
     p.add_argument("--quick", action="store_true", help="a small grid (2 directions, 1 phase, 2 magnitudes)")
     step_timing_args(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")

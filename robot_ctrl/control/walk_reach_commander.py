@@ -52,14 +52,23 @@ STANCE_SHARE = 0.5  # of the reach's final CoM shift taken by placing the stop s
 MAX_STANCE_SHIFT = 0.04  # [m]
 PELVIS_GAIN = 1.0  # [1/s] standing: integral gain of the measured pelvis's error into the lean
 SLOWING_LAG = 0.03  # [m] measured pelvis lag at which the synthesis runs at MIN_SYNTHESIS_RATE
+#: A speed class faster than the learned one decelerates the synthesized pelvis sooner than the
+#: robot can follow (at 1.2 the pelvis arrived about 1 cm after the standing action began): its
+#: slowing starts at SLOWING_LAG / scale**FAST_SLOWING_EXPONENT of lag (measured on the fast trials,
+#: docs/campaigns.md).
+FAST_SLOWING_EXPONENT = 4
 MIN_SYNTHESIS_RATE = 0.2
 GRASP_TIMEOUT = 2.0  # [s] after the sequence, a hand that never got hold of the handle gives up
 
 
 class WalkReachCommander:
     def __init__(self, controller: WalkingController, primitives: WalkReachPrimitives, targets: DrawerTargets,
-                 log: Callable[[str], None] = print):
+                 log: Callable[[str], None] = print, *, speed: float = 1.0):
+        """``speed``: the synthesis's time runs this many times the robot's (``modes.SpeedClass``):
+        its durations are divided by it, its pelvis velocities multiplied, its lengths kept."""
         self.controller, self.primitives, self.targets, self.log = controller, primitives, targets, log
+        self.speed = speed
+        self._slowing_lag = SLOWING_LAG / max(speed, 1.0) ** FAST_SLOWING_EXPONENT
         self.body = SynthesizedBody(controller.robot)
         self.hands = DrawerHands(controller, targets, self.body)
         self.heading = rotation(targets.start[2])
@@ -85,8 +94,8 @@ class WalkReachCommander:
         self._walk_in_posture = self.base_posture.copy()
         self._walk_in_posture[self.body.upper] = dry.step(controller.dt).upper_body_q
         controller.set_upper_body(self.posture)
-        controller.set_time_scale(float(np.clip(first.duration / (2 * controller.params.step_period), 0.5, 2.0)))
-        controller.set_velocity(first.length / first.duration, 0.0, 0.0)
+        controller.set_time_scale(self._gait_scale(first.duration))
+        controller.set_velocity(speed * first.length / first.duration, 0.0, 0.0)
         controller.on_sample(self._on_sample)
 
     def advance(self) -> float:
@@ -117,7 +126,7 @@ class WalkReachCommander:
             return self._posture_now
         q = self._posture_now.copy()
         p = self._preview
-        times = self._preview_t + p.t
+        times = self._preview_t + p.t / self.speed
         q[self.body.upper] = [np.interp(t, times, p.upper_body_q[:, j]) for j in range(len(self.body.upper))]
         return q
 
@@ -133,7 +142,7 @@ class WalkReachCommander:
             return
         if not self.synth.finished:
             index = self.synth.action_index
-            output = self.synth.step(self.controller.dt * self._synthesis_rate(), self._goal(t))
+            output = self.synth.step(self.controller.dt * self._synthesis_rate() * self.speed, self._goal(t))
             if self.synth.finished:
                 self.boundaries.append((t, Action.ENDED))
             else:
@@ -150,6 +159,12 @@ class WalkReachCommander:
             self.hands.reach(t, share, upper, self._posture_now, self._final_upper)
         self._lean(share)
 
+    def _gait_scale(self, duration: float) -> float:
+        """The gait's time scale for an action of ``duration`` [s] of synthesis time: one action is
+        two steps."""
+        period = 2 * self.controller.params.step_period
+        return float(np.clip(duration / self.speed / period, 0.5, 2.0))
+
     def _synthesis_rate(self) -> float:
         """How fast the synthesis's time runs against the robot's. Over the second half of the last
         short cycle, the leader oscillator slows while the measured pelvis lags the synthesized one:
@@ -158,7 +173,7 @@ class WalkReachCommander:
         if self.output is None or not self._last_short or self.output.phase < np.pi:
             return 1.0
         lag = self.synth_start_advance + self.synth.progress - self.advance()
-        return float(np.clip(1.0 - lag / SLOWING_LAG, MIN_SYNTHESIS_RATE, 1.0))
+        return float(np.clip(1.0 - lag / self._slowing_lag, MIN_SYNTHESIS_RATE, 1.0))
 
     @property
     def _last_short(self) -> bool:
@@ -196,11 +211,11 @@ class WalkReachCommander:
         if self.synth.finished:
             return
         plan = self.synth.plan[self.synth.action_index]
-        self._preview = self.synth.preview(c.params.horizon * c.params.sample_time, PREVIEW_DT)
+        self._preview = self.synth.preview(c.params.horizon * c.params.sample_time * self.speed, PREVIEW_DT)
         self._preview_t = sample.t
         if plan.action is Action.STAND:
             return
-        c.set_time_scale(float(np.clip(plan.duration / (2 * c.params.step_period), 0.5, 2.0)))
+        c.set_time_scale(self._gait_scale(plan.duration))
         if self._last_short:
             target = self.synth_start_advance + self.synth.targets[-1]
             if self.stopping_at != target:
@@ -209,8 +224,8 @@ class WalkReachCommander:
         # The next step, within the action under way: the MPC must not slow this action for the
         # next, when a replan made the next ones shorter.
         remaining = (1.0 - self.output.phase / (2 * np.pi)) * plan.duration if self.output is not None else plan.duration
-        ahead = self._preview.t <= max(min(plan.duration / 2, remaining), MIN_PREVIEW)
-        v = self._preview.pelvis_velocity[ahead].mean(axis=0)
+        ahead = self._preview.t <= max(min(plan.duration / 2, remaining), MIN_PREVIEW * self.speed)  # synthesis time
+        v = self.speed * self._preview.pelvis_velocity[ahead].mean(axis=0)
         lag = self.synth_start_advance + self.synth.progress - self._planned_advance(sample)
         c.set_velocity(float(v[0] + POSITION_GAIN * lag), 0.0, 0.0)
 
@@ -239,7 +254,7 @@ class WalkReachCommander:
         # The plan's CoM leads the pelvis by what the walking posture puts ahead of it: measured here,
         # at a touch-down, as every action boundary is.
         self._com_offset = self._planned_advance(sample) + self._com_offset - self.synth_start_advance
-        self.synth = Synthesizer(self.primitives, self._goal(t), self.controller.dt)
+        self.synth = Synthesizer(self.primitives, self._goal(t), self.controller.dt * self.speed)
         self.boundaries.append((t, self.synth.plan[0].action))
         self.log(f"t = {t:6.2f} s  synthesis starts {self.synth_start_advance:.3f} m from the start: actions "
                  f"{[p.action for p in self.synth.plan]}, lengths {[round(p.length, 3) for p in self.synth.plan]} m")

@@ -1,5 +1,6 @@
 """DrawerTask: what a user asks of the drawer scenario (where the cabinet stands, which slot holds
-the object, the cabinet's jumps, the dynamic filter, the control period, how the base is seen), and
+the object, the cabinet's jumps, the speed class, the dynamic filter, the control period, how the
+base is seen), and
 its check against what the learned primitives can do."""
 
 from __future__ import annotations
@@ -7,7 +8,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from robot_ctrl.geometry.drawer import SLOTS
-from robot_ctrl.modes import BaseState, FilterMode
+from robot_ctrl.modes import BaseState, FilterMode, SpeedClass
 from robot_ctrl.synthesis.synthesizer import GoalJump
 
 MAX_DISTANCE = 6.0  # [m] farthest cabinet: a room's length
@@ -22,6 +23,7 @@ class DrawerTask:
     dynfilter: FilterMode = FilterMode.FULL
     control_dt: float = 0.005  # [s]
     base_state: BaseState = BaseState.SIMULATED  # where the controller's base pose and velocity come from
+    speed: SpeedClass = SpeedClass.NOMINAL  # how fast the synthesized sequence is played
 
     def check(self, comfort: float, shortest: float) -> None:
         """Raise ValueError naming the setting and its allowed range."""

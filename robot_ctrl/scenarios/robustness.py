@@ -1,6 +1,7 @@
 """Robustness campaign: the 3 m walk at 0.25 m/s under pushes in 8 directions at 4 gait phases,
 growing until the robot falls, and under model mismatch (mass, friction, latency). Each trial is
-``robot-ctrl walk`` with disturbance options (``eval/trials.py``); the campaign writes
+``robot-ctrl walk`` with disturbance options, run by the campaign runner (``eval/campaign_runner.py``:
+resumable, on a local or a Ray backend; each walk's report under ``DIR/trials/``); the campaign writes
 ``robustness.json`` and ``robustness.html`` (polar plot of the largest survived push per direction
 and phase, beside the largest the LIP could capture from the state each push met, ``eval.push_capture``;
 a pass/fail table per mismatch)."""
@@ -11,8 +12,10 @@ import json
 from pathlib import Path
 from typing import Callable
 
+from robot_ctrl.eval.campaign_backends import Backend
+from robot_ctrl.eval.campaign_runner import run_campaign
 from robot_ctrl.eval.robustness_report import render_robustness
-from robot_ctrl.eval.trials import Trial, run_trials
+from robot_ctrl.eval.trial_process import Trial, TrialOutcome
 from robot_ctrl.wpg.params import WalkParams
 
 WALK = ("walk", "--distance", "3", "--speed", "0.25")
@@ -48,17 +51,34 @@ MISMATCH = {"mass ×0.85": ("--mass-scale", "0.85"), "mass ×1.15": ("--mass-sca
             "latency 10 ms": ("--latency-ms", "10")}
 
 
-def _walked(report: dict) -> bool:
-    return "error" not in report and not report["fell"]
+TRIAL_TIMEOUT = 600.0  # [s] of wall time per walk
 
 
-def run_robustness(out_dir: Path, jobs: int = 1, *, directions=DIRECTIONS, phases=PHASES,
+def _walked(report: dict | None) -> bool:
+    return report is not None and not report["fell"]
+
+
+def _row(trial: Trial, report: dict | None, outcome: TrialOutcome) -> dict:
+    return {"id": trial.id, "command": " ".join(trial.argv), "fell": None if report is None else report["fell"],
+            "wall_s": round(outcome.wall_s, 2), "error": outcome.error}
+
+
+def _round(trials: list[Trial], out_dir: Path, backend: Backend, progress: bool, label: str) -> dict[str, dict | None]:
+    """Each trial's report (None for one that wrote none), by id; KeyboardInterrupt if stopped."""
+    run = run_campaign(trials, out_dir, backend, _row, timeout=TRIAL_TIMEOUT, progress=progress, label=label)
+    if run.interrupted:
+        raise KeyboardInterrupt("the campaign stopped; run the same command again to finish it")
+    return {t.id: run.reports.get(t.id) for t in trials}
+
+
+def run_robustness(out_dir: Path, backend: Backend, *, directions=DIRECTIONS, phases=PHASES,
                    magnitudes=MAGNITUDES, mismatch: dict = MISMATCH, log: Callable[[str], None] = print,
                    progress: bool = True, single: float = WalkParams.single_support,
                    double: float = WalkParams.double_support) -> dict:
     """Pushes grow per (direction, phase) until the first fall: one round of trials per magnitude,
     only for the cells that walked the round before. ``phases``: names of :func:`push_phases`;
-    ``single``, ``double``: the walk's step timing [s], which sets its push times too."""
+    ``single``, ``double``: the walk's step timing [s], which sets its push times too. Every round
+    runs on ``backend`` and resumes where a stopped campaign left it."""
     out_dir = Path(out_dir)
     walk, times = walk_command(single, double), push_phases(single, double)
     phases = {p: times[p] for p in phases}
@@ -71,26 +91,28 @@ def run_robustness(out_dir: Path, jobs: int = 1, *, directions=DIRECTIONS, phase
             break
         trials = [Trial(f"push_{p}_{d}_{m}", (*walk, "--push", f"{phases[p]}:{d}:{m}")) for d, p in standing]
         log(f"pushes of {m} N·s/kg: {len(trials)} walks")
-        reports = run_trials(trials, out_dir, jobs, progress=progress)
+        reports = _round(trials, out_dir, backend, progress, f"pushes of {m}")
         for cell, trial in zip(list(standing), trials):
-            if not capturable[cell] and reports[trial.name].get("push_capture"):
-                capture = reports[trial.name]["push_capture"][0]
+            report = reports[trial.id]
+            if not capturable[cell] and report is not None and report.get("push_capture"):
+                capture = report["push_capture"][0]
                 capturable[cell] = {k: capture[k] for k in BOUNDS}
-            if _walked(reports[trial.name]):
+            if _walked(report):
                 largest[cell] = m
-                ended[cell] = reports[trial.name]["final_position_error_m"]
+                ended[cell] = report["final_position_error_m"]
             else:
                 standing.remove(cell)
     mismatch_trials = [Trial("mismatch_" + "".join(ch if ch.isalnum() else "_" for ch in name), (*walk, *args))
                        for name, args in mismatch.items()]
-    reports = run_trials(mismatch_trials, out_dir, jobs, progress=progress)
+    reports = _round(mismatch_trials, out_dir, backend, progress, "mismatch")
     result = {
         "walk": " ".join(walk), "push_duration_s": 0.1, "phases_s": phases, "magnitudes_ns_per_kg": list(magnitudes),
         "largest_survived_push": [{"direction_deg": d, "phase": p, "impulse_ns_per_kg": v,
                                    "final_position_error_m": ended[d, p]} | {k: capturable[d, p].get(k) for k in BOUNDS}
                                   for (d, p), v in largest.items()],
-        "mismatch": [{"name": name, "walked": _walked(r), "fall_time_s": r.get("fall_time_s"),
-                      "final_position_error_m": r.get("final_position_error_m"), "error": r.get("error")}
+        "mismatch": [{"name": name, "walked": _walked(r), "fall_time_s": (r or {}).get("fall_time_s"),
+                      "final_position_error_m": (r or {}).get("final_position_error_m"),
+                      "error": None if r is not None else "no report"}
                      for name, r in zip(mismatch, reports.values())],
     }
     out_dir.mkdir(parents=True, exist_ok=True)

@@ -1,0 +1,73 @@
+"""``robot-ctrl campaign``: many drawer trials, locally or on a Ray cluster, resumable."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from robot_ctrl.cli.options import check_ranges, log_line
+from robot_ctrl.modes import FilterMode
+from robot_ctrl.robot.config import ConfigError
+
+
+def _campaign(args: argparse.Namespace) -> int:
+    from robot_ctrl.eval.campaign_backends import open_backend
+    from robot_ctrl.scenarios import campaign
+
+    check_ranges("campaign", args)
+    try:
+        methods = campaign.parse_methods(args.method)
+        speeds = campaign.parse_speeds(args.speeds)
+        dynfilter = FilterMode.parse(args.dynfilter)
+        if args.trials is not None:
+            trials = campaign.read_trials(args.trials, methods, dynfilter)
+        else:
+            trials = campaign.draw_trials(args.n, args.seed, speeds, methods, dynfilter)
+        campaign.check_trials(trials)
+        backend = open_backend(args.backend, args.jobs, args.address)
+    except (OSError, ValueError) as exc:
+        raise ConfigError(f"campaign: {exc}".replace("speed ", "--speeds ").replace("method ", "--method ")) from exc
+    args.out.mkdir(parents=True, exist_ok=True)
+    result = campaign.run_drawer_campaign(trials, args.out, backend, timeout=args.timeout, progress=not args.quiet,
+                                          log=log_line)
+    if result is None:
+        raise KeyboardInterrupt("the campaign stopped; run the same command again to finish it")
+    for s in result["summary"]:
+        log_line(f"{s['method']} {s['speed']:>7}: {s['trials']} trials, {s['falls']} falls, "
+                 f"{s['successes']} successes, {s['errors']} errors; step error median {_mm(s['step_length_error_median_m'])}, max "
+                 f"{_mm(s['step_length_error_max_m'])}; hand error max {_mm(s['hand_error_max_m'])}")
+    bad = sum(s["falls"] + s["errors"] for s in result["summary"])
+    return 1 if bad else 0
+
+
+def _mm(value: float | None) -> str:
+    return "–" if value is None else f"{value * 1e3:.1f} mm"
+
+
+def add_parsers(sub) -> None:
+    p = sub.add_parser("campaign", help="many drawer trials in parallel, locally or on a Ray cluster (resumable)",
+                       description="Runs drawer trials (from --trials FILE, or --n drawn at random with --seed at new "
+                                   "distances), each in its own processes, --jobs at a time, and writes "
+                                   "DIR/campaign.json (a row per trial, a summary per method and speed class), "
+                                   "DIR/campaign.html and each trial's report under DIR/trials/. Rerunning the same "
+                                   "command finishes the trials a kill left undone. Exit status 1 if a trial fell or "
+                                   "ended in an error, 130 when interrupted.")
+    which = p.add_mutually_exclusive_group(required=True)
+    which.add_argument("--trials", type=Path, metavar="FILE",
+                       help="one trial a line: distance slot speed [jump_time jump_distance]; # comments")
+    which.add_argument("--n", type=int, help="trials drawn at random per method, 1..10000")
+    p.add_argument("--seed", type=int, default=0, help="seed of the random draw (with --n)")
+    p.add_argument("--speeds", default="slow,middle,fast",
+                   help="speed classes of the drawn trials, in turn (slow 0.8, middle 0.92, nominal 1.0, fast 1.2)")
+    p.add_argument("--method", default="ours", help="comma-separated methods (ours)")
+    p.add_argument("--dynfilter", choices=[m.value for m in FilterMode], default=FilterMode.FULL.value,
+                   help="dynamic filter of every trial")
+    p.add_argument("--jobs", type=int, default=2, help="trials at a time, 1..256")
+    p.add_argument("--backend", choices=("local", "ray"), default="local",
+                   help="local: this machine's processes; ray: a Ray cluster (--address) or a Ray instance "
+                        "started here")
+    p.add_argument("--address", help="with --backend ray: the cluster's head (ray://HOST:10001 or HOST:6379)")
+    p.add_argument("--timeout", type=float, default=600.0, help="wall-clock limit of one trial [s], 10..86400")
+    p.add_argument("--out", type=Path, default=Path("runs/campaign"), help="output folder")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(run=_campaign)

@@ -1,0 +1,115 @@
+"""``DIR/campaign.html``: a drawer campaign on one self-contained page (figures as embedded PNG):
+the summary per method and speed class beside the thesis's numbers, histograms of the step-length
+and hand errors (thesis Fig. 3.41, right), and the ankle pitch torque and vertical ground reaction
+force against time for the trials with the largest peaks, with their limits (Fig. 3.47)."""
+
+from __future__ import annotations
+
+import html
+from pathlib import Path
+
+import numpy as np
+
+from robot_ctrl.eval.html_report import figure_png
+
+#: The thesis's numbers for its method (3.8.4): falls of 30 new trials per speed class (Table 3.1),
+#: step-length errors (Fig. 3.41), peak torque and GRF within the robot's limits (Fig. 3.47).
+THESIS = {"falls": "0 of 10 per speed class (Table 3.1)", "step_length_error": "< 10 mm, often < 5 mm (Fig. 3.41)",
+          "peaks": "within the robot's limits, ratio < 1 (Fig. 3.47)"}
+SUMMARY_COLUMNS = (("method", "method"), ("speed", "speed"), ("trials", "trials"), ("falls", "falls"),
+                   ("successes", "successes"), ("errors", "errors"),
+                   ("step_length_error_median_m", "step error median [mm]"),
+                   ("step_length_error_max_m", "step error max [mm]"),
+                   ("hand_error_median_m", "hand error median [mm]"),
+                   ("hand_error_max_m", "hand error max [mm]"),
+                   ("peak_ankle_pitch_torque_ratio", "peak ankle pitch torque / limit"),
+                   ("peak_grf_ratio", "peak vertical GRF / limit"))
+PEAK_TRIALS = 3  # trials shown against time
+
+
+def _cell(key: str, value) -> str:
+    if value is None:
+        return "–"
+    if key.endswith("_m"):
+        return f"{value * 1e3:.1f}"
+    return f"{value:.3f}" if isinstance(value, float) else str(value)
+
+
+def _label(axes, xlabels, ylabels) -> None:
+    for ax, x, y in zip(axes, xlabels, ylabels):
+        ax.set_xlabel(x)
+        ax.set_ylabel(y)
+        ax.legend(fontsize=7)
+
+
+def _histograms(rows: list[dict]):
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.4))
+    for method in sorted({r["method"] for r in rows}):
+        steps = [abs(e) * 1e3 for r in rows if r["method"] == method for e in r.get("step_length_errors_m") or []]
+        hands = [r["hand_error_m"] * 1e3 for r in rows if r["method"] == method and r.get("hand_error_m") is not None]
+        axes[0].hist(steps, bins=20, alpha=0.7, label=method)
+        axes[1].hist(hands, bins=20, alpha=0.7, label=method)
+    axes[0].axvline(10.0, color="k", ls="--", lw=1, label="thesis: < 10 mm")
+    _label(axes, ("|realized − planned step length| [mm]", "right hand to object at the end [mm]"), ("count", "count"))
+    return fig
+
+
+def _peaks_over_time(rows: list[dict], out_dir: Path):
+    """Ankle pitch torque and vertical GRF of the trials with the largest peaks, against time."""
+    import matplotlib.pyplot as plt
+
+    ranked = sorted((r for r in rows if r.get("peak_ankle_pitch_torque_ratio") is not None),
+                    key=lambda r: -max(r["peak_ankle_pitch_torque_ratio"], r["peak_grf_ratio"] or 0.0))[:PEAK_TRIALS]
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.4))
+    for r in ranked:
+        path = out_dir / "trials" / r["id"] / "timeseries.npz"
+        if not path.is_file():
+            continue
+        s = np.load(path)
+        line, = axes[0].plot(s["drawer_t"], np.abs(s["ankle_pitch_torque"]).max(axis=1), lw=0.8, label=r["id"])
+        axes[1].plot(s["t"], s["grf"].max(axis=1), lw=0.8, color=line.get_color(), label=r["id"])
+        axes[0].axhline(float(np.min(s["ankle_pitch_limit_nm"])), color="k", ls="--", lw=1)
+        axes[1].axhline(float(s["grf_limit_n"]), color="k", ls="--", lw=1)
+    _label(axes, ("time [s]", "time [s]"),
+           ("|ankle pitch torque|, larger foot [N·m]", "vertical GRF, larger foot [N]"))
+    return fig
+
+
+def render_campaign(campaign: dict, out_dir: Path) -> Path:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    out_dir = Path(out_dir)
+    rows = campaign["trials"]
+    head = "".join(f"<th>{html.escape(label)}</th>" for _, label in SUMMARY_COLUMNS)
+    body = "".join("<tr>" + "".join(f"<td>{html.escape(_cell(k, s.get(k)))}</td>" for k, _ in SUMMARY_COLUMNS)
+                   + "</tr>" for s in campaign["summary"])
+    thesis = "".join(f"<li>{html.escape(k.replace('_', ' '))}: {html.escape(v)}</li>" for k, v in THESIS.items())
+    failed = [r for r in rows if r["fell"] or not r["success"] or r["error"]]
+    failures = "".join(f"<li>{html.escape(r['id'])}: fell {r['fell']}, success {r['success']}"
+                       f"{', error: ' + html.escape(r['error']) if r['error'] else ''}</li>" for r in failed)
+    failures = failures or "<li>none</li>"
+    figures = [("Step-length and hand errors (thesis Fig. 3.41, right)", figure_png(_histograms(rows))),
+               (f"Ankle pitch torque and vertical GRF of the trials with the largest peaks (at most {PEAK_TRIALS}), "
+                "limits dashed (thesis Fig. 3.47)", figure_png(_peaks_over_time(rows, out_dir)))]
+    images = "".join(f'<h2>{html.escape(t)}</h2><img alt="{html.escape(t)}" src="data:image/png;base64,{png}">'
+                     for t, png in figures)
+    page = f"""<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>robot_ctrl drawer campaign: {len(rows)} trials</title>
+<style>body{{font-family:sans-serif;max-width:1100px;margin:2em auto;}} table{{border-collapse:collapse;}}
+th,td{{border:1px solid #ccc;padding:3px 8px;text-align:right;font-size:90%;}} img{{max-width:100%;}}</style>
+</head><body><h1>Drawer campaign: {len(rows)} trials</h1>
+<table><tr>{head}</tr>{body}</table>
+<h2>The thesis's method, for comparison</h2><ul>{thesis}</ul>
+<h2>Trials that fell, failed a criterion or ended in an error</h2><ul>{failures}</ul>
+{images}
+<p>Each trial's report: <code>trials/ID/report.json</code> (<code>robot-ctrl report trials/ID</code> renders it).</p>
+</body></html>
+"""
+    path = out_dir / "campaign.html"
+    tmp = out_dir / ".campaign.html.partial"
+    tmp.write_text(page)
+    tmp.replace(path)
+    return path

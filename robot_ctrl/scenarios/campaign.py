@@ -1,0 +1,189 @@
+"""Drawer campaigns: many walk-and-reach trials, their rows and their summary per method and speed
+class (thesis 3.8.3, Table 3.1 and Figs. 3.41, 3.47).
+
+A trial is one ``robot-ctrl drawer`` run: distance, slot, speed class, an optional goal jump, the
+dynamic filter and the method (``METHODS``: how a trial becomes a command line; the comparison
+methods of the thesis add entries). Trials come from a text file (:func:`read_trials`) or are drawn
+at random (:func:`draw_trials`) at distances beyond every training sequence's goal. The runner
+(``eval/campaign_runner.py``) makes them resumable and runs them on a local or a Ray backend.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable, Sequence
+
+import numpy as np
+
+from robot_ctrl.eval.campaign_backends import Backend
+from robot_ctrl.eval.campaign_report import render_campaign
+from robot_ctrl.eval.campaign_runner import run_campaign
+from robot_ctrl.eval.trial_process import Trial, TrialOutcome
+from robot_ctrl.geometry.drawer import SLOTS
+from robot_ctrl.modes import FilterMode, SpeedClass
+from robot_ctrl.scenarios.drawer_task import MAX_DISTANCE
+
+#: Where random trials' cabinets stand [m] from the start pelvis. Every training sequence's goal
+#: lies within 1.83 m (the synthesis's 1.05-1.53 m, plus the walk before it starts): these are new.
+DRAWN_DISTANCES = (2.0, 5.5)
+DEFAULT_SPEEDS = (SpeedClass.SLOW, SpeedClass.MIDDLE, SpeedClass.FAST)
+TRIAL_TIMEOUT = 600.0  # [s] of wall time per trial; the longest drawer trial takes about a minute here
+
+
+@dataclass(frozen=True)
+class DrawerTrial:
+    index: int  # position in the campaign (names its folder)
+    method: str
+    distance: float  # [m] cabinet from the start pelvis
+    slot: str
+    speed: SpeedClass
+    jump: tuple[float, float] | None = None  # (time [s], new distance [m])
+    dynfilter: FilterMode = FilterMode.FULL
+    seed: int | None = None  # the draw's seed (random trials)
+
+    @property
+    def id(self) -> str:
+        return f"{self.index:03d}_{self.method}_{self.slot}_{self.distance:.3f}m_{self.speed.value}"
+
+    def trial(self) -> Trial:
+        return Trial(self.id, METHODS[self.method](self))
+
+
+def _ours(t: DrawerTrial) -> tuple[str, ...]:
+    """The method of the thesis: synthesis → WPG → dynamic filter → stack of tasks."""
+    jump = ("--goal-jump", f"{t.jump[0]:g}:{t.jump[1]:g}") if t.jump else ()
+    return ("drawer", "--distance", f"{t.distance:g}", "--slot", t.slot, "--speed", t.speed.value,
+            "--dynfilter", t.dynfilter.value, *jump)
+
+
+#: Method name → the command line of one trial.
+METHODS: dict[str, Callable[[DrawerTrial], tuple[str, ...]]] = {"ours": _ours}
+
+
+def parse_methods(text: str) -> tuple[str, ...]:
+    methods = tuple(m.strip() for m in text.split(",") if m.strip())
+    unknown = [m for m in methods if m not in METHODS]
+    if not methods or unknown:
+        raise ValueError(f"method {', '.join(unknown) or repr(text)} is not one of {', '.join(METHODS)}")
+    return methods
+
+
+def parse_speeds(text: str) -> tuple[SpeedClass, ...]:
+    return tuple(SpeedClass.parse(s.strip()) for s in text.split(",") if s.strip()) or DEFAULT_SPEEDS
+
+
+def read_trials(path: Path, methods: Sequence[str], dynfilter: FilterMode) -> list[DrawerTrial]:
+    """One trial per line, ``distance slot speed [jump_time jump_distance]``, ``#`` comments; each
+    line runs once per method. ValueError names the line."""
+    trials = []
+    for number, line in enumerate(Path(path).read_text().splitlines(), 1):
+        words = line.split("#", 1)[0].split()
+        if not words:
+            continue
+        where = f"{path}:{number}"
+        if len(words) not in (3, 5):
+            raise ValueError(f"{where}: expected 'distance slot speed [jump_time jump_distance]', got {line.strip()!r}")
+        try:
+            distance, jump = float(words[0]), (float(words[3]), float(words[4])) if len(words) == 5 else None
+        except ValueError:
+            raise ValueError(f"{where}: distance and jump must be numbers, got {line.strip()!r}") from None
+        if words[1] not in SLOTS:
+            raise ValueError(f"{where}: slot {words[1]!r} is not one of {', '.join(SLOTS)}")
+        try:
+            speed = SpeedClass.parse(words[2])
+        except ValueError as exc:
+            raise ValueError(f"{where}: {exc}") from None
+        for method in methods:
+            trials.append(DrawerTrial(len(trials), method, distance, words[1], speed, jump, dynfilter))
+    if not trials:
+        raise ValueError(f"{path}: no trial in it")
+    return trials
+
+
+def draw_trials(n: int, seed: int, speeds: Sequence[SpeedClass], methods: Sequence[str],
+                dynfilter: FilterMode) -> list[DrawerTrial]:
+    """``n`` trials per method: distances uniform in ``DRAWN_DISTANCES`` (mm resolution), slots
+    uniform, speed classes in turn (as the thesis's 10 per class)."""
+    rng = np.random.default_rng(seed)
+    draws = [(round(float(rng.uniform(*DRAWN_DISTANCES)), 3), str(rng.choice(SLOTS)), speeds[k % len(speeds)])
+             for k in range(n)]
+    return [DrawerTrial(i * len(methods) + j, method, d, slot, speed, None, dynfilter, seed)
+            for i, (d, slot, speed) in enumerate(draws) for j, method in enumerate(methods)]
+
+
+def check_trials(trials: Sequence[DrawerTrial]) -> None:
+    """The distances a drawer task accepts (the task itself checks the rest when it runs)."""
+    for t in trials:
+        for d in (t.distance, *(t.jump[1:] if t.jump else ())):
+            if not (math.isfinite(d) and 0 < d <= MAX_DISTANCE):
+                raise ValueError(f"trial {t.id}: distance {d} m is outside the allowed range (0, {MAX_DISTANCE}] m")
+
+
+def drawer_row(spec: DrawerTrial, report: dict | None, outcome: TrialOutcome) -> dict:
+    """The campaign's row of one trial (``report``: its drawer report, None if it wrote none)."""
+    row = {"id": spec.id, "method": spec.method, "distance_m": spec.distance, "slot": spec.slot,
+           "speed": spec.speed.value, "jump": list(spec.jump) if spec.jump else None, "seed": spec.seed,
+           "dynfilter": spec.dynfilter.value, "wall_s": round(outcome.wall_s, 2), "error": outcome.error}
+    if report is None:
+        return row | {"fell": None, "success": False}
+    errors = report.get("step_length_errors_m") or []
+    ankle = report.get("peak_ankle_pitch_torque_ratio") or {}
+    grf = report.get("peak_grf_n") or {}
+    return row | {
+        "fell": report["fell"], "fall_time_s": report["fall_time_s"], "success": report["success"],
+        "step_length_errors_m": errors, "step_length_error_max_m": report.get("step_length_error_max_m"),
+        "hand_error_m": report.get("hand_to_object_m"), "drawer_opening_m": report.get("drawer_opening_m"),
+        "peak_ankle_pitch_torque_ratio": max(ankle.values()) if ankle else None,
+        "peak_grf_ratio": round(max(grf.values()) / report["grf_limit_n"], 4) if grf else None,
+        "safety_interventions": report["safety"]["interventions"], "rtf": report["rtf"]}
+
+
+def _stat(values: list[float], f) -> float | None:
+    return round(float(f(values)), 5) if values else None
+
+
+def summarize(rows: Sequence[dict]) -> list[dict]:
+    """Per method and speed class: trials, falls, successes, errors, median and max of the step
+    length and hand errors (absolute), the largest peak ratios."""
+    groups: dict[tuple[str, str], list[dict]] = {}
+    for r in rows:
+        groups.setdefault((r["method"], r["speed"]), []).append(r)
+    order = {s.value: k for k, s in enumerate(SpeedClass)}
+    out = []
+    for (method, speed), rs in sorted(groups.items(), key=lambda kv: (kv[0][0], order[kv[0][1]])):
+        steps = [abs(e) for r in rs for e in r.get("step_length_errors_m") or []]
+        hands = [r["hand_error_m"] for r in rs if r.get("hand_error_m") is not None]
+        ankles = [r["peak_ankle_pitch_torque_ratio"] for r in rs if r.get("peak_ankle_pitch_torque_ratio") is not None]
+        grfs = [r["peak_grf_ratio"] for r in rs if r.get("peak_grf_ratio") is not None]
+        out.append({"method": method, "speed": speed, "trials": len(rs), "falls": sum(bool(r["fell"]) for r in rs),
+                    "successes": sum(bool(r["success"]) for r in rs),
+                    "errors": sum(r["error"] is not None for r in rs),
+                    "step_length_error_median_m": _stat(steps, np.median), "step_length_error_max_m": _stat(steps, max),
+                    "hand_error_median_m": _stat(hands, np.median), "hand_error_max_m": _stat(hands, max),
+                    "peak_ankle_pitch_torque_ratio": _stat(ankles, max), "peak_grf_ratio": _stat(grfs, max)})
+    return out
+
+
+def run_drawer_campaign(trials: Sequence[DrawerTrial], out_dir: Path, backend: Backend, *,
+                        timeout: float = TRIAL_TIMEOUT, progress: bool = True,
+                        log: Callable[[str], None] = print) -> dict | None:
+    """Run the trials not yet done in ``out_dir``; when all are, write ``campaign.json`` and
+    ``campaign.html`` and return the campaign; None when interrupted."""
+    check_trials(trials)
+    specs = {t.id: t for t in trials}
+    run = run_campaign([t.trial() for t in trials], out_dir, backend,
+                       lambda trial, report, outcome: drawer_row(specs[trial.id], report, outcome),
+                       timeout=timeout, progress=progress, label="drawer trials")
+    if not run.complete:
+        log(f"{len(run.rows)} of {len(trials)} trials done; run the same command again to finish the campaign")
+        return None
+    campaign = {"trials": run.rows, "summary": summarize(run.rows)}
+    out_dir = Path(out_dir)
+    tmp = out_dir / ".campaign.json.partial"
+    tmp.write_text(json.dumps(campaign, indent=2) + "\n")
+    tmp.replace(out_dir / "campaign.json")
+    log(f"wrote {out_dir / 'campaign.json'} and {render_campaign(campaign, out_dir)}")
+    return campaign

@@ -1,0 +1,123 @@
+"""Drawer campaigns: trials from a file or drawn at random, run in processes of their own on the
+local and the Ray backend with the same rows, resumable after Ctrl-C and after SIGKILL."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+from robot_ctrl.cli import main
+from robot_ctrl.modes import FilterMode, SpeedClass
+from robot_ctrl.scenarios.campaign import DRAWN_DISTANCES, draw_trials, read_trials, summarize
+
+TRIALS = """# distance slot speed [jump_time jump_distance]
+1.6 back_left slow
+1.7 front_right fast   # a comment after a trial
+1.6 front_left nominal 2.0 1.9
+"""
+#: What differs between two runs of the same trial: its timing.
+TIMING = ("wall_s", "rtf")
+
+
+def campaign(out, trials_file, *extra):
+    return [sys.executable, "-m", "robot_ctrl.cli", "campaign", "--trials", str(trials_file), "--out", str(out),
+            "--quiet", *extra]
+
+
+def rows(out):
+    return {r["id"]: {k: v for k, v in r.items() if k not in TIMING}
+            for r in json.loads((out / "campaign.json").read_text())["trials"]}
+
+
+def wait_for_rows(out, n, process, limit=300.0):
+    """Until ``n`` trial rows exist in ``out`` (the campaign still running)."""
+    start = time.monotonic()
+    while len(list((out / "trials").glob("*/row.json"))) < n:
+        assert process.poll() is None and time.monotonic() - start < limit
+        time.sleep(0.2)
+
+
+def test_trials_from_a_file_and_drawn_at_random(tmp_path):
+    path = tmp_path / "trials.txt"
+    path.write_text(TRIALS)
+    trials = read_trials(path, ("ours",), FilterMode.FULL)
+    assert [(t.distance, t.slot, t.speed, t.jump) for t in trials] == [
+        (1.6, "back_left", SpeedClass.SLOW, None), (1.7, "front_right", SpeedClass.FAST, None),
+        (1.6, "front_left", SpeedClass.NOMINAL, (2.0, 1.9))]
+    assert trials[1].trial().argv == ("drawer", "--distance", "1.7", "--slot", "front_right", "--speed", "fast",
+                                      "--dynfilter", "full")
+    drawn = draw_trials(30, 1, (SpeedClass.SLOW, SpeedClass.MIDDLE, SpeedClass.FAST), ("ours",), FilterMode.FULL)
+    assert drawn == draw_trials(30, 1, (SpeedClass.SLOW, SpeedClass.MIDDLE, SpeedClass.FAST), ("ours",), FilterMode.FULL)
+    assert [sum(t.speed is s for t in drawn) for s in (SpeedClass.SLOW, SpeedClass.MIDDLE, SpeedClass.FAST)] == [10] * 3
+    assert all(DRAWN_DISTANCES[0] <= t.distance <= DRAWN_DISTANCES[1] for t in drawn)
+    assert len({t.id for t in drawn}) == 30 and len({t.distance for t in drawn}) > 25
+    summary = summarize([{"method": "ours", "speed": "fast", "fell": False, "success": True, "error": None,
+                          "step_length_errors_m": [0.004, -0.006], "hand_error_m": 0.001,
+                          "peak_ankle_pitch_torque_ratio": 0.4, "peak_grf_ratio": 0.8},
+                         {"method": "ours", "speed": "fast", "fell": True, "success": False, "error": None,
+                          "step_length_errors_m": [0.002], "hand_error_m": 0.003,
+                          "peak_ankle_pitch_torque_ratio": 0.9, "peak_grf_ratio": 1.2}])
+    assert summary == [{"method": "ours", "speed": "fast", "trials": 2, "falls": 1, "successes": 1, "errors": 0,
+                        "step_length_error_median_m": 0.004, "step_length_error_max_m": 0.006,
+                        "hand_error_median_m": 0.002, "hand_error_max_m": 0.003,
+                        "peak_ankle_pitch_torque_ratio": 0.9, "peak_grf_ratio": 1.2}]
+
+
+@pytest.mark.parametrize("args,message", [
+    (["--n", "0"], "--n 0 is outside the allowed range"),
+    (["--n", "2", "--speeds", "slow,warp"], "--speeds 'warp' is not one of slow, middle, nominal, fast"),
+    (["--n", "2", "--method", "magic"], "--method magic is not one of ours"),
+    (["--n", "2", "--address", "1.2.3.4:6379"], "--address names a Ray cluster"),
+    (["--trials", "/nonexistent/trials.txt"], "No such file"),
+])
+def test_bad_campaign_input_is_refused_with_one_line(args, message, capsys, tmp_path):
+    assert main(["campaign", *args, "--out", str(tmp_path / "c")]) == 2
+    err = capsys.readouterr().err
+    assert message in err and len(err.strip().splitlines()) == 1, err
+
+
+def test_a_bad_trials_line_is_named(tmp_path, capsys):
+    path = tmp_path / "trials.txt"
+    path.write_text("1.6 back_left slow\n1.7 sideways fast\n")
+    assert main(["campaign", "--trials", str(path), "--out", str(tmp_path / "c")]) == 2
+    assert f"{path}:2: slot 'sideways' is not one of" in capsys.readouterr().err
+
+
+def test_stopped_campaigns_resume_and_ray_gives_the_local_rows(tmp_path):
+    pytest.importorskip("ray", reason="the cluster extra: pip install 'robot-ctrl[cluster]' (make test installs it)")
+    path = tmp_path / "trials.txt"
+    path.write_text(TRIALS)
+    local = tmp_path / "local"
+    # Ctrl-C while the second trial runs: it ends and keeps its row, the third never starts.
+    process = subprocess.Popen(campaign(local, path, "--jobs", "1"), stderr=subprocess.PIPE, text=True)
+    wait_for_rows(local, 1, process)
+    process.send_signal(signal.SIGINT)
+    _, err = process.communicate(timeout=300)
+    assert process.returncode == 130 and "run the same command again" in err, err[-500:]
+    assert len(list((local / "trials").glob("*/row.json"))) == 2 and not (local / "campaign.json").exists()
+    # SIGKILL while the third runs: nothing of it is left, and no trial process outlives the campaign.
+    process = subprocess.Popen(campaign(local, path, "--jobs", "1"), stderr=subprocess.DEVNULL)
+    time.sleep(3.0)
+    os.kill(process.pid, signal.SIGKILL)
+    process.wait()
+    time.sleep(1.0)
+    assert len(list((local / "trials").glob("*/row.json"))) == 2
+    orphans = subprocess.run(["pgrep", "-f", "--", "--out /tmp.*/robot-ctrl-trial-"], capture_output=True, text=True)
+    assert orphans.returncode == 1 and not orphans.stdout.strip(), orphans
+    # The same command finishes the third trial only.
+    done = subprocess.run(campaign(local, path, "--jobs", "1"), capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-1000:]
+    assert len(rows(local)) == 3 and all(r["success"] and not r["fell"] and r["error"] is None
+                                         for r in rows(local).values())
+    # The same trials on a Ray instance started here: the same rows (the physics is deterministic).
+    ray = tmp_path / "ray"
+    done = subprocess.run(campaign(ray, path, "--jobs", "2", "--backend", "ray"), capture_output=True, text=True,
+                          timeout=600)
+    assert done.returncode == 0, done.stderr[-1000:]
+    assert rows(ray) == rows(local)
+    page = (ray / "campaign.html").read_text()
+    assert "data:image/png;base64," in page and "Table 3.1" in page and "<td>slow</td>" in page
