@@ -22,6 +22,7 @@ import numpy as np
 
 from robot_ctrl.dynfilter.dynamic_filter import ComOffset, DynamicFilter, filter_request
 from robot_ctrl.dynfilter.preview_correction import PreviewCorrection
+from robot_ctrl.hw.parent_death import die_with_parent
 from robot_ctrl.modes import FilterMode
 from robot_ctrl.robot.model import RobotModel
 from robot_ctrl.wpg.plan import PlanPreview
@@ -41,6 +42,7 @@ class FilterResult:
 
 def _serve(connection, robot: RobotModel, horizon: int, com_height: float, mode: str, passes: int) -> None:
     """Worker process: refine every request in order and send the result back, until ``None``."""
+    die_with_parent()  # a controller killed outright sends no None, and the pipe may never report it gone
     # Idle priority: the result is due a sample later, while the loop's physics thread shares this
     # core and is waited for every tick. Linux's SCHED_IDLE yields the core the moment the physics
     # wakes; elsewhere, the lowest nice value.

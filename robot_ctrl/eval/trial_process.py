@@ -11,7 +11,6 @@ the running trials end, and not the trials themselves.
 
 from __future__ import annotations
 
-import ctypes
 import os
 import signal
 import subprocess
@@ -20,6 +19,8 @@ import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+
+from robot_ctrl.hw.parent_death import die_with_parent
 
 #: The files of a trial's output folder that come back (the HTML report is rendered on demand).
 KEPT_FILES = ("report.json", "timeseries.npz")
@@ -42,14 +43,6 @@ class TrialOutcome:
     wall_s: float = 0.0
 
 
-def _die_with_parent() -> None:
-    """In the child before exec (Linux): SIGKILL when the thread that started it dies."""
-    try:
-        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
-    except OSError:
-        pass
-
-
 def run_trial(trial: Trial, timeout: float) -> TrialOutcome:
     """Run ``robot-ctrl ARGV --quiet --out TMP`` within ``timeout`` [s] of wall time; whatever goes
     wrong becomes the outcome's error, never an exception."""
@@ -65,7 +58,7 @@ def _run(trial: Trial, timeout: float) -> TrialOutcome:
         start = time.monotonic()
         process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                                    start_new_session=True,
-                                   preexec_fn=_die_with_parent if sys.platform.startswith("linux") else None)
+                                   preexec_fn=die_with_parent)
         try:
             _, stderr = process.communicate(timeout=timeout)
         except subprocess.TimeoutExpired:

@@ -34,6 +34,7 @@ from typing import Callable, NoReturn
 import numpy as np
 
 from robot_ctrl.hw.adapter import HardwareAdapter
+from robot_ctrl.hw.parent_death import die_with_parent
 from robot_ctrl.hw.shared_state import SharedCommand, SharedState
 from robot_ctrl.hw.types import JointCommand, JointState
 
@@ -122,6 +123,7 @@ def _serve(slot: _CallSlot, backend: Callable[[], HardwareAdapter], command: Sha
     """Child process: build the backend, then answer calls until ``close`` or until the
     controller's process is gone."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C stops the controller, which closes us
+    die_with_parent()
     parent = os.getppid()
     try:
         hw = backend()
