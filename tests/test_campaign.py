@@ -58,7 +58,8 @@ def test_trials_from_a_file_and_drawn_at_random(tmp_path):
     assert trials[1].trial().argv == ("drawer", "--distance", "1.7", "--slot", "front_right", "--speed", "fast",
                                       "--dynfilter", "full")
     drawn = draw_trials(30, 1, (SpeedClass.SLOW, SpeedClass.MIDDLE, SpeedClass.FAST), ("ours",), FilterMode.FULL)
-    assert drawn == draw_trials(30, 1, (SpeedClass.SLOW, SpeedClass.MIDDLE, SpeedClass.FAST), ("ours",), FilterMode.FULL)
+    classes = (SpeedClass.SLOW, SpeedClass.MIDDLE, SpeedClass.FAST)
+    assert drawn == draw_trials(30, 1, classes, ("ours",), FilterMode.FULL)
     assert [sum(t.speed is s for t in drawn) for s in (SpeedClass.SLOW, SpeedClass.MIDDLE, SpeedClass.FAST)] == [10] * 3
     assert all(DRAWN_DISTANCES[0] <= t.distance <= DRAWN_DISTANCES[1] for t in drawn)
     assert len({t.id for t in drawn}) == 30 and len({t.distance for t in drawn}) > 25

@@ -88,3 +88,35 @@ def test_drawer_rejects_bad_arguments(args, message, capsys, tmp_path):
     assert main(["drawer", *args, "--out", str(tmp_path / "run")]) == 2
     assert message in capsys.readouterr().err
     assert not (tmp_path / "run").exists()
+
+
+def drawer_log(opening=0.18, short_by=0.0):
+    """Logged arrays of a drawer task: the pelvis walks 0.4 m (1-3 s), then 0.2 m less ``short_by``
+    (3-5 s) and stands at the comfort distance; the drawer opens to ``opening`` from 6 s."""
+    t = np.linspace(0.0, 10.0, 2001)
+    x = np.interp(t, [0.0, 1.0, 3.0, 5.0, 10.0], [0.0, 0.0, 0.4, 0.6 - short_by, 0.6 - short_by])
+    n = len(t)
+    return {"t": t, "base": np.column_stack([x, np.zeros(n), np.zeros(n)]),
+            "ankle_pitch_torque": np.full((n, 2), 40.0), "grf": np.full((n, 2), 450.0), "gripper_q": np.zeros((n, 2)),
+            "drawer_opening_m": np.interp(t, [0.0, 6.0, 8.0], [0.0, 0.0, opening]),
+            "drawer_velocity_mps": np.zeros(n), "drawer_pull_force_n": np.full(n, 30.0),
+            "grasped": (t > 6.0).astype(float), "left_hand_to_handle_m": np.full(n, 0.004),
+            "right_hand_to_object_m": np.full(n, 0.001), "cabinet_distance_m": np.full(n, 0.6 + 0.647)}
+
+
+def outcome(log):
+    from robot_ctrl.eval.drawer_recorder import drawer_outcome
+
+    return drawer_outcome(log, [1.0, 3.0, 5.0, 10.0], [0.4, 0.2, 0.0], lambda xy: float(xy[0]), fell=False,
+                          required_opening=0.14, comfort=0.647, ankle_limit=np.array([160.0, 160.0]))
+
+
+def test_the_drawer_report_judges_the_logged_run():
+    good = outcome(drawer_log())
+    assert good["success"] and good["realized_step_lengths_m"] == [0.4, 0.2, 0.0]
+    assert good["final_pelvis_to_drawer_m"] == 0.647 and good["peak_ankle_pitch_torque_ratio"] == {"left": 0.25,
+                                                                                                   "right": 0.25}
+    shut = outcome(drawer_log(opening=0.0))  # every other criterion met, the drawer never opened
+    assert not shut["success"] and shut["drawer_opening_m"] == 0.0
+    short = outcome(drawer_log(short_by=0.02))  # the measured pelvis fell 2 cm short of the second action
+    assert short["step_length_errors_m"] == [0.0, -0.02, 0.0] and not short["success"]

@@ -705,3 +705,27 @@ def test_a_drive_in_fault_refuses_activation(talos):
     finally:
         hw.close()
         emulator.close()
+
+
+def test_gains_and_torques_cross_a_gear_ratio_of_nine(talos, tmp_path):
+    """A joint behind an N = 9 reduction: the motor turns N times as far and as fast, carries 1/N of
+    the torque, and its PD gains are kp / N², kd / N² (the motor-side law τ_m = kp_m (p_ref − p) + ...
+    gives N τ_m = kp (q_ref − q) + ... at the joint). Every shipped config has N = 1."""
+    source = load_bus_config("talos_mit_can", talos.joint_names).path.read_text()
+    path = tmp_path / "geared.yaml"
+    path.write_text(source.replace("gear_ratio: 1.0", "gear_ratio: 9.0"))
+    config = load_bus_config(path, talos.joint_names)
+    n, d, zero = config.gear, config.direction, config.zero
+    assert np.all(n == 9.0) and set(d) <= {-1.0, 1.0}
+    rng = np.random.default_rng(0)
+    q, dq, tau = rng.uniform(-1, 1, talos.nj), rng.uniform(-2, 2, talos.nj), rng.uniform(-50, 50, talos.nj)
+    p, v, kp_m, kd_m, tau_m = config.to_motor(q, dq, talos.kp, talos.kd, tau)
+    np.testing.assert_allclose(kp_m, talos.kp / 81.0, rtol=1e-12)
+    np.testing.assert_allclose(kd_m, talos.kd / 81.0, rtol=1e-12)
+    np.testing.assert_allclose(tau_m, d * tau / 9.0, rtol=1e-12)
+    np.testing.assert_allclose(p, d * 9.0 * q + zero, rtol=1e-12)
+    np.testing.assert_allclose(v, d * 9.0 * dq, rtol=1e-12)
+    # A motor-side PD at the motor-side gains is the joint-side PD seen through the gear.
+    error_m, rate_m = rng.uniform(-0.5, 0.5, talos.nj), rng.uniform(-1, 1, talos.nj)
+    q_back, dq_back, joint_torque = config.to_joint(p - error_m, v - rate_m, kp_m * error_m + kd_m * rate_m + tau_m)
+    np.testing.assert_allclose(joint_torque, talos.kp * (q - q_back) + talos.kd * (dq - dq_back) + tau, rtol=1e-9)

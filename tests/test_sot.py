@@ -105,6 +105,27 @@ def test_infeasible_problem_raises_a_typed_error(talos, tasks):
         solver.solve(talos.pin, talos.pin.createData(), q, DT)
 
 
+def test_the_feet_hold_exactly_when_the_com_target_is_out_of_reach(talos):
+    """Feet above balance, strictly: with a CoM target a metre ahead (beyond any posture over these
+    feet, and beyond the joints' velocity limits at the task's gain), every solve still gives the
+    soles exactly the velocity their task asks for, while the CoM moves as far as the legs allow."""
+    ik = WholeBodyIK(talos, talos.q_half_sitting)
+    data = talos.pin.createData()
+    com0 = ik.com_position()
+    ik.com.set_target(com0 + [1.0, 0.0, 0.0])
+    for k in range(60):
+        q = ik.q.copy()
+        v = ik.step(DT)
+        pin.computeJointJacobians(talos.pin, data, q)
+        pin.updateFramePlacements(talos.pin, data)
+        for s in ("left", "right"):
+            A, b = ik.feet[s].rows(talos.pin, data, q)
+            np.testing.assert_allclose(A @ v, b, atol=1e-6 * max(1.0, np.abs(b).max()))
+        A_com, b_com = ik.com.rows(talos.pin, data, q)
+        assert np.linalg.norm(A_com @ v - b_com) > 1.0  # the balance level could not be met
+    assert ik.com_position()[0] - com0[0] > 0.05  # ... and did act, as far as the feet let it
+
+
 def test_whole_body_ik_reaches_the_demo_hand_target(talos):
     """Kinematically, the balance demo's reach is feasible with feet fixed and the CoM held."""
     ik = WholeBodyIK(talos, talos.q_half_sitting)

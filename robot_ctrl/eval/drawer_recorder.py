@@ -20,6 +20,7 @@ grasp, both hands' distances to their targets). The report (:meth:`DrawerRecorde
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -64,42 +65,16 @@ class DrawerRecorder:
         out.update({name: a[:, 10 + i] for i, name in enumerate(DRAWER_READINGS)})
         return out
 
-    def advance(self, a: dict, t: float) -> float:
-        """Measured pelvis advance along the start heading at time ``t`` [m]."""
-        k = min(int(np.searchsorted(a["t"], t - 1e-9)), len(a["t"]) - 1)
-        return self.commander.targets.advance(a["base"][k, :2])
-
     def report(self, fell: bool, geometry, slot: str, comfort: float) -> dict:
-        a, c = self.arrays(), self.commander
+        c = self.commander
         plan = c.synth.plan if c.synth is not None else []
-        times = [t for t, _ in c.boundaries]
-        planned = [p.length for p in plan[: max(len(times) - 1, 0)]]
-        realized = [self.advance(a, t1) - self.advance(a, t0) for t0, t1 in zip(times, times[1:])]
-        errors = [r - p for r, p in zip(realized, planned)]
-        grasped = a["grasped"] > 0.5
-        at_grasp = a["left_hand_to_handle_m"][np.argmax(grasped)] if grasped.any() else np.nanmin(a["left_hand_to_handle_m"])
-        final_distance = float(a["cabinet_distance_m"][-1]) - self.advance(a, a["t"][-1])
-        opening, required = float(a["drawer_opening_m"][-1]), geometry.required_opening(slot)
-        hand_to_object = float(a["right_hand_to_object_m"][-1])
-        step_error = float(np.abs(errors).max()) if errors else None
-        ankle = np.abs(a["ankle_pitch_torque"]).max(axis=0) / self.ankle_limit
-        success = bool(not fell and step_error is not None and step_error <= STEP_TOLERANCE
-                       and abs(final_distance - comfort) <= COMFORT_TOLERANCE and opening >= required
-                       and hand_to_object <= OBJECT_TOLERANCE)
-        return dict(
-            success=success, actions=[action for _, action in c.boundaries if action],
-            planned_step_lengths_m=_round(planned), realized_step_lengths_m=_round(realized),
-            step_length_errors_m=_round(errors), step_length_error_max_m=_round(step_error),
-            comfort_distance_m=round(comfort, 4), final_pelvis_to_drawer_m=round(final_distance, 4),
-            drawer_opening_m=round(opening, 4), drawer_opening_required_m=required,
-            drawer_pull_force_peak_n=round(float(np.nanmax(a["drawer_pull_force_n"])), 2),
-            grasp="weld" if grasped.any() else "none",
-            grasp_time_s=round(float(a["t"][np.argmax(grasped)]), 3) if grasped.any() else None,
-            hand_to_handle_m=round(float(at_grasp), 4), hand_to_object_m=round(hand_to_object, 4),
+        planned = [p.length for p in plan[: max(len(c.boundaries) - 1, 0)]]
+        return drawer_outcome(self.arrays(), [t for t, _ in c.boundaries], planned, c.targets.advance, fell=fell,
+                              required_opening=geometry.required_opening(slot), comfort=comfort,
+                              ankle_limit=self.ankle_limit) | dict(
+            actions=[action for _, action in c.boundaries if action],
             hand_to_object_synth_only_m=round(self.synth_hand_error, 4),
-            peak_ankle_pitch_torque_ratio={side: round(float(r), 4) for side, r in zip(SIDES, ankle)},
-            replans=c.synth.replans if c.synth is not None else 0,
-        )
+            replans=c.synth.replans if c.synth is not None else 0)
 
     def save(self, out_dir: Path) -> Path:
         """Append the drawer's series to the walk's ``timeseries.npz`` (action boundaries too)."""
@@ -112,6 +87,43 @@ class DrawerRecorder:
         data["action_starts"] = np.array([[t, action] for t, action in self.commander.boundaries]).reshape(-1, 2)
         np.savez_compressed(path, **data)
         return path
+
+
+def drawer_outcome(a: dict[str, np.ndarray], boundaries: list[float], planned: list[float],
+                   advance: Callable[[np.ndarray], float], *, fell: bool, required_opening: float, comfort: float,
+                   ankle_limit: np.ndarray) -> dict:
+    """The drawer task's measured figures and ``success`` from its logged arrays (``a``, as
+    :meth:`DrawerRecorder.arrays` gives them): ``boundaries``, the times [s] at which the synthesis
+    switched action; ``planned``, the synthesized lengths [m] of the actions between them;
+    ``advance(base_xy)``, the pelvis advance [m] along the start heading of a measured base."""
+
+    def advance_at(t: float) -> float:
+        k = min(int(np.searchsorted(a["t"], t - 1e-9)), len(a["t"]) - 1)
+        return advance(a["base"][k, :2])
+
+    realized = [advance_at(t1) - advance_at(t0) for t0, t1 in zip(boundaries, boundaries[1:])]
+    errors = [r - p for r, p in zip(realized, planned)]
+    grasped = a["grasped"] > 0.5
+    to_handle = a["left_hand_to_handle_m"]
+    at_grasp = to_handle[np.argmax(grasped)] if grasped.any() else np.nanmin(to_handle)
+    final_distance = float(a["cabinet_distance_m"][-1]) - advance_at(a["t"][-1])
+    opening = float(a["drawer_opening_m"][-1])
+    hand_to_object = float(a["right_hand_to_object_m"][-1])
+    step_error = float(np.abs(errors).max()) if errors else None
+    ankle = np.abs(a["ankle_pitch_torque"]).max(axis=0) / ankle_limit
+    success = bool(not fell and step_error is not None and step_error <= STEP_TOLERANCE
+                   and abs(final_distance - comfort) <= COMFORT_TOLERANCE and opening >= required_opening
+                   and hand_to_object <= OBJECT_TOLERANCE)
+    return dict(
+        success=success, planned_step_lengths_m=_round(planned), realized_step_lengths_m=_round(realized),
+        step_length_errors_m=_round(errors), step_length_error_max_m=_round(step_error),
+        comfort_distance_m=round(comfort, 4), final_pelvis_to_drawer_m=round(final_distance, 4),
+        drawer_opening_m=round(opening, 4), drawer_opening_required_m=required_opening,
+        drawer_pull_force_peak_n=round(float(np.nanmax(a["drawer_pull_force_n"])), 2),
+        grasp="weld" if grasped.any() else "none",
+        grasp_time_s=round(float(a["t"][np.argmax(grasped)]), 3) if grasped.any() else None,
+        hand_to_handle_m=round(float(at_grasp), 4), hand_to_object_m=round(hand_to_object, 4),
+        peak_ankle_pitch_torque_ratio={side: round(float(r), 4) for side, r in zip(SIDES, ankle)})
 
 
 def _round(values, digits: int = 5):
