@@ -101,7 +101,10 @@ def test_stopped_campaigns_resume_and_ray_gives_the_local_rows(tmp_path):
     path.write_text(TRIALS)
     local = tmp_path / "local"
     # Ctrl-C while the second trial runs: it ends and keeps its row, the third never starts.
-    process = subprocess.Popen(campaign(local, path, "--jobs", "1"), stderr=subprocess.PIPE, text=True)
+    # As from a terminal: SIGINT at its default (a test run started in the background has it ignored,
+    # and a child would inherit that).
+    process = subprocess.Popen(campaign(local, path, "--jobs", "1"), stderr=subprocess.PIPE, text=True,
+                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     wait_for_rows(local, 1, process)
     process.send_signal(signal.SIGINT)
     _, err = process.communicate(timeout=300)
