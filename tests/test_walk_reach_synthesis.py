@@ -205,3 +205,36 @@ def test_synthesizer_rejects_bad_input(primitives):
 
 def test_phase_helper_wraps_into_one_period():
     assert phase(np.array([1.0, -1e-9])) > 6.28 and phase(np.array([-1.0, 0.0])) == pytest.approx(np.pi)
+
+
+def test_learned_primitives_are_cached_and_learned_anew_when_the_demonstrations_change(talos, tmp_path,
+                                                                                      monkeypatch):
+    import dataclasses
+
+    from robot_ctrl.scenarios.walk_reach_synthesis import load_demonstrations, load_primitives
+    from robot_ctrl.synthesis.primitives import WalkReachPrimitives
+
+    monkeypatch.setenv("ROBOT_CTRL_CACHE", str(tmp_path / "cache"))
+    learned = []
+    learn = WalkReachPrimitives.learn.__func__
+
+    def counting(cls, demos, robot, *args, **kwargs):
+        learned.append(demos.comfort_distance)
+        return learn(cls, demos, robot, *args, **kwargs)
+
+    monkeypatch.setattr(WalkReachPrimitives, "learn", classmethod(counting))
+    first = load_primitives(talos)
+    second = load_primitives(talos)  # from the cache: not learned again, and the same model
+    assert len(learned) == 1
+    for action, length in ((1, 0.35), (2, 0.2), (3, 0.2)):
+        a, b = first.action(action, length, "back_left"), second.action(action, length, "back_left")
+        assert a.duration == b.duration and all(np.array_equal(getattr(a, f), getattr(b, f))
+                                                for f in ("means", "w0", "weights"))
+    assert np.array_equal(first.rotations, second.rotations) and first.quality == second.quality
+    assert len(list((tmp_path / "cache").glob("talos-primitives-*.pickle"))) == 1
+    demos = load_demonstrations(talos)
+    changed = tmp_path / "changed_demos.npz"
+    dataclasses.replace(demos, comfort_distance=demos.comfort_distance + 0.01).save(changed)
+    third = load_primitives(talos, changed)
+    assert learned == [demos.comfort_distance, demos.comfort_distance + 0.01]
+    assert third.comfort_distance == first.comfort_distance + 0.01
