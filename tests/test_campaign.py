@@ -1,6 +1,7 @@
 """Drawer campaigns: trials from a file or drawn at random, run in processes of their own on the
 local and the Ray backend with the same rows, resumable after Ctrl-C and after SIGKILL."""
 
+import dataclasses
 import json
 import os
 import signal
@@ -57,6 +58,7 @@ def test_trials_from_a_file_and_drawn_at_random(tmp_path):
         (1.6, "front_left", SpeedClass.NOMINAL, (2.0, 1.9))]
     assert trials[1].trial().argv == ("drawer", "--distance", "1.7", "--slot", "front_right", "--speed", "fast",
                                       "--dynfilter", "full")
+    assert dataclasses.replace(trials[1], method="ours-no-feedback").trial().argv[-1] == "--no-position-feedback"
     drawn = draw_trials(30, 1, (SpeedClass.SLOW, SpeedClass.MIDDLE, SpeedClass.FAST), ("ours",), FilterMode.FULL)
     classes = (SpeedClass.SLOW, SpeedClass.MIDDLE, SpeedClass.FAST)
     assert drawn == draw_trials(30, 1, classes, ("ours",), FilterMode.FULL)

@@ -120,3 +120,15 @@ def test_the_drawer_report_judges_the_logged_run():
     assert not shut["success"] and shut["drawer_opening_m"] == 0.0
     short = outcome(drawer_log(short_by=0.02))  # the measured pelvis fell 2 cm short of the second action
     assert short["step_length_errors_m"] == [0.0, -0.02, 0.0] and not short["success"]
+
+
+def test_without_position_feedback_the_synthesis_alone_steers_the_walk(tmp_path):
+    """The commander's loops off: the synthesizer's own advance still matches its plan (kinematics),
+    the measured pelvis does not, by more than with the loops on (test_drawer_task_end_to_end)."""
+    status = main(["drawer", "--distance", "1.6", "--slot", "back_left", "--no-position-feedback", "--quiet",
+                   "--out", str(tmp_path)])
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert status == 0 and report["position_feedback"] is False and not report["fell"]
+    synthesis = max(abs(e) for e in report["synthesis_step_length_errors_m"])
+    realized = max(abs(e) for e in report["step_length_errors_m"])
+    assert synthesis < 0.001 < realized and abs(report["final_pelvis_to_drawer_m"] - report["comfort_distance_m"]) > 0.01

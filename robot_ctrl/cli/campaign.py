@@ -34,8 +34,9 @@ def _campaign(args: argparse.Namespace) -> int:
         raise KeyboardInterrupt("the campaign stopped; run the same command again to finish it")
     for s in result["summary"]:
         log_line(f"{s['method']} {s['speed']:>7}: {s['trials']} trials, {s['falls']} falls, "
-                 f"{s['successes']} successes, {s['errors']} errors; step error median {_mm(s['step_length_error_median_m'])}, max "
-                 f"{_mm(s['step_length_error_max_m'])}; hand error max {_mm(s['hand_error_max_m'])}")
+                 f"{s['successes']} successes, {s['errors']} errors; step error median "
+                 f"{_mm(s['step_length_error_median_m'])}, max {_mm(s['step_length_error_max_m'])}; hand error max "
+                 f"{_mm(s['hand_error_max_m'])}")
     bad = sum(s["falls"] + s["errors"] for s in result["summary"])
     return 1 if bad else 0
 

@@ -69,7 +69,7 @@ def _drawer(args: argparse.Namespace) -> int:
 
     jumps = tuple(time_distance(j, "--goal-jump") for j in args.goal_jump)
     task = DrawerTask(args.distance, args.slot, jumps, FilterMode(args.dynfilter), base_state=base_state_of(args),
-                      speed=SpeedClass(args.speed))
+                      speed=SpeedClass(args.speed), position_feedback=not args.no_position_feedback)
     parse_disturbances(args)
     robot = load_robot(args.robot)
     try:  # before anything is learned or started
@@ -168,6 +168,9 @@ def _add_drawer(sub, sim) -> None:
     p.add_argument("--speed", choices=[m.value for m in SpeedClass], default=SpeedClass.NOMINAL.value,
                    help="speed class: the synthesized sequence played at 0.8 (slow), 0.92 (middle), 1.0 (nominal) "
                         "or 1.2 (fast) times its learned timing (thesis 3.3.2, Table 3.1)")
+    p.add_argument("--no-position-feedback", action="store_true",
+                   help="the synthesis alone steers the walk: no feedback of the pelvis's lag, no stop at the final "
+                        "footsteps, no waiting for the pelvis, no standing lean (docs/drawer.md)")
     base_state_arg(p)
     p.add_argument("--out", type=Path, help="write DIR/report.json, DIR/timeseries.npz and DIR/report.html")
     log_arg(p)

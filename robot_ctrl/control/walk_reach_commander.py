@@ -63,11 +63,17 @@ GRASP_TIMEOUT = 2.0  # [s] after the sequence, a hand that never got hold of the
 
 class WalkReachCommander:
     def __init__(self, controller: WalkingController, primitives: WalkReachPrimitives, targets: DrawerTargets,
-                 log: Callable[[str], None] = print, *, speed: float = 1.0):
+                 log: Callable[[str], None] = print, *, speed: float = 1.0, position_feedback: bool = True):
         """``speed``: the synthesis's time runs this many times the robot's (``modes.SpeedClass``):
-        its durations are divided by it, its pelvis velocities multiplied, its lengths kept."""
+        its durations are divided by it, its pelvis velocities multiplied, its lengths kept.
+        ``position_feedback`` False turns off the four loops that bring the measured pelvis to where
+        the synthesis planned it (the lag feedback into the WPG's velocity, the stop at the final
+        footsteps, the synthesis clock waiting for the pelvis, the standing lean): the WPG then gets
+        the synthesized velocity alone and a zero velocity once the robot should stand, and what the
+        task achieves is the synthesis's own (thesis Fig. 3.41 without the controller's help)."""
         self.controller, self.primitives, self.targets, self.log = controller, primitives, targets, log
         self.speed = speed
+        self.position_feedback = position_feedback
         self._slowing_lag = SLOWING_LAG / max(speed, 1.0) ** FAST_SLOWING_EXPONENT
         self.body = SynthesizedBody(controller.robot)
         self.hands = DrawerHands(controller, targets, self.body)
@@ -170,7 +176,7 @@ class WalkReachCommander:
         short cycle, the leader oscillator slows while the measured pelvis lags the synthesized one:
         the synthesized pelvis comes to rest at once, the walking robot's settles over about half a
         second, and the next action (standing, the pull) must not begin before it has."""
-        if self.output is None or not self._last_short or self.output.phase < np.pi:
+        if not self.position_feedback or self.output is None or not self._last_short or self.output.phase < np.pi:
             return 1.0
         lag = self.synth_start_advance + self.synth.progress - self.advance()
         return float(np.clip(1.0 - lag / self._slowing_lag, MIN_SYNTHESIS_RATE, 1.0))
@@ -208,15 +214,18 @@ class WalkReachCommander:
             if len(c.touchdowns) < WALK_IN_STEPS:
                 return
             self._start_synthesis(sample)
-        if self.synth.finished:
-            return
+        if self.synth.finished or self.synth.plan[self.synth.action_index].action is Action.STAND:
+            if not self.position_feedback:
+                c.set_velocity(0.0, 0.0, 0.0)  # the WPG's own stop: the next footstep, then one beside it
+            if self.synth.finished:
+                return
         plan = self.synth.plan[self.synth.action_index]
         self._preview = self.synth.preview(c.params.horizon * c.params.sample_time * self.speed, PREVIEW_DT)
         self._preview_t = sample.t
         if plan.action is Action.STAND:
             return
         c.set_time_scale(self._gait_scale(plan.duration))
-        if self._last_short:
+        if self._last_short and self.position_feedback:
             target = self.synth_start_advance + self.synth.targets[-1]
             if self.stopping_at != target:
                 self._stop(target, sample.t)
@@ -227,7 +236,7 @@ class WalkReachCommander:
         ahead = self._preview.t <= max(min(plan.duration / 2, remaining), MIN_PREVIEW * self.speed)  # synthesis time
         v = self.speed * self._preview.pelvis_velocity[ahead].mean(axis=0)
         lag = self.synth_start_advance + self.synth.progress - self._planned_advance(sample)
-        c.set_velocity(float(v[0] + POSITION_GAIN * lag), 0.0, 0.0)
+        c.set_velocity(float(v[0] + (POSITION_GAIN * lag if self.position_feedback else 0.0)), 0.0, 0.0)
 
     def _stop(self, target: float, t: float) -> None:
         """Stop with the pelvis ``target`` [m] from the start. The synthesized reach moves the CoM

@@ -12,6 +12,9 @@ grasp, both hands' distances to their targets). The report (:meth:`DrawerRecorde
   (or its least value if it never did); ``hand_to_object_m``: right gripper base to the object's
   reach point at the end; ``hand_to_object_synth_only_m``: the synthesized arm angles alone, by
   forward kinematics at the measured pelvis pose and legs, against the same point;
+- ``synthesis_step_length_errors_m``: the synthesizer's own pelvis advance over each finished
+  action less the length it planned (the synthesis alone, kinematic: what it would do with a robot
+  that followed it exactly);
 - ``success``: no fall, every step within ``STEP_TOLERANCE``, pelvis within ``COMFORT_TOLERANCE`` of
   the comfort distance, the drawer open by at least the required clearance, the right hand within
   ``OBJECT_TOLERANCE`` of the object.
@@ -73,6 +76,9 @@ class DrawerRecorder:
                               required_opening=geometry.required_opening(slot), comfort=comfort,
                               ankle_limit=self.ankle_limit) | dict(
             actions=[action for _, action in c.boundaries if action],
+            synthesis_step_length_errors_m=_round([h.end_progress - h.start_progress - h.planned_length
+                                                   for h in (c.synth.history if c.synth is not None else [])
+                                                   if h.end_progress is not None]),
             hand_to_object_synth_only_m=round(self.synth_hand_error, 4),
             replans=c.synth.replans if c.synth is not None else 0)
 
@@ -130,5 +136,5 @@ def _round(values, digits: int = 5):
     if values is None:
         return None
     if isinstance(values, float):
-        return round(values, digits)
-    return [round(float(v), digits) for v in values]
+        return round(values, digits) + 0.0  # + 0.0: no "-0.0" in a report
+    return [round(float(v), digits) + 0.0 for v in values]

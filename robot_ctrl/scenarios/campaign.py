@@ -59,8 +59,13 @@ def _ours(t: DrawerTrial) -> tuple[str, ...]:
             "--dynfilter", t.dynfilter.value, *jump)
 
 
+def _ours_no_feedback(t: DrawerTrial) -> tuple[str, ...]:
+    """The same without the commander's position loops: what the synthesis itself achieves."""
+    return (*_ours(t), "--no-position-feedback")
+
+
 #: Method name → the command line of one trial.
-METHODS: dict[str, Callable[[DrawerTrial], tuple[str, ...]]] = {"ours": _ours}
+METHODS: dict[str, Callable[[DrawerTrial], tuple[str, ...]]] = {"ours": _ours, "ours-no-feedback": _ours_no_feedback}
 
 
 def parse_methods(text: str) -> tuple[str, ...]:

@@ -47,7 +47,8 @@ def run_drawer(robot: RobotModel, hw: SafetyLayer, primitives: WalkReachPrimitiv
                                 pacer, recorders, log)
     start = base_pose_xy_yaw(run.state.base_pos, run.state.base_quat_xyzw)
     targets = DrawerTargets(start, float(run.state.base_pos[2]), task.distance, task.slot, task.jumps, geometry)
-    commander = WalkReachCommander(controller, primitives, targets, log, speed=task.speed.scale)
+    commander = WalkReachCommander(controller, primitives, targets, log, speed=task.speed.scale,
+                                   position_feedback=task.position_feedback)
     foot = robot.config.foot
     walk = WalkRecorder(controller, WalkLog(robot.mass * GRAVITY, start, (foot.length, foot.width)), start,
                         lambda line: None)
@@ -62,7 +63,8 @@ def run_drawer(robot: RobotModel, hw: SafetyLayer, primitives: WalkReachPrimitiv
     log(result.stop_reason)
     report = run.metrics.report() | {"robot": robot.name, "distance_m": task.distance, "slot": task.slot,
                                      "goal_jumps": [{"time_s": j.time, "distance_m": j.distance} for j in task.jumps],
-                                     "dynfilter": task.dynfilter.value, "speed": task.speed.value} | drawer.report(
+                                     "dynfilter": task.dynfilter.value, "speed": task.speed.value,
+                                     "position_feedback": task.position_feedback} | drawer.report(
         run.metrics.fell, geometry, task.slot, primitives.comfort_distance) | dict(
         zmp_in_support_ratio=walk.zmp_in_support_ratio, footsteps=walk.footsteps, **walk.log.metrics(),
         dynfilter_fallbacks=controller.filter_fallbacks, push_recoveries=controller.push_recoveries,

@@ -24,6 +24,7 @@ class DrawerTask:
     control_dt: float = 0.005  # [s]
     base_state: BaseState = BaseState.SIMULATED  # where the controller's base pose and velocity come from
     speed: SpeedClass = SpeedClass.NOMINAL  # how fast the synthesized sequence is played
+    position_feedback: bool = True  # the commander's loops that bring the pelvis where the synthesis planned it
 
     def check(self, comfort: float, shortest: float) -> None:
         """Raise ValueError naming the setting and its allowed range."""
