@@ -9,7 +9,7 @@ STAMP  := $(VENV)/.installed
 BENCH_VENV  := .venv-bench
 BENCH_STAMP := $(BENCH_VENV)/.installed
 
-.PHONY: demo test bench clean
+.PHONY: demo test bench mutate clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -32,5 +32,12 @@ test: $(STAMP)
 bench: $(BENCH_STAMP)
 	$(BENCH_VENV)/bin/python benchmarks/run_all.py
 
+# Mutation testing of the reports and the hardware-safety code with the fast tests ([tool.mutmut] in
+# pyproject.toml; docs/testing.md). Not part of `make test` or CI.
+mutate: $(STAMP)
+	$(BIN)/python -m pip install --quiet -e '.[dev,cluster,mutate]'
+	$(BIN)/mutmut run --max-children 2
+	$(BIN)/mutmut results
+
 clean:
-	rm -rf $(VENV) $(BENCH_VENV) runs
+	rm -rf $(VENV) $(BENCH_VENV) runs mutants
