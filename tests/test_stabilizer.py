@@ -29,3 +29,37 @@ def test_the_desired_zmp_is_clamped_onto_the_support_polygon():
     # Inside the feet the law is not touched: a small DCM error gives a desired ZMP strictly inside.
     stabilizer.correction(estimate([0.0, 0.0], [0.02, 0.0], [0.0, 0.0]), np.zeros(2), np.zeros(2), np.zeros(2), 0.005)
     assert FEET.distance_inside(stabilizer.desired_zmp) > 0.05
+
+
+def test_one_tick_of_the_feedback_law():
+    """Δċ = k_zmp (p_meas − p_d) + k_com (c_ref − c_meas) − k_leak Δc, with p_d = p_ref + k_dcm (ξ_meas − ξ_ref),
+    k_dcm = 1 + ω_dcm / ω, ξ = c + ċ / ω, integrated over one tick, each gain a different number so that a
+    wrong sign or factor shows."""
+    from robot_ctrl.control.stabilizer import StabilizerGains
+
+    gains = StabilizerGains(dcm_rate=2.0, k_zmp=3.0, k_com=5.0, k_leak=7.0, max_offset=0.04)
+    stabilizer = DcmStabilizer(com_height=0.8, gains=gains)
+    omega = np.sqrt(9.81 / 0.8)
+    stabilizer.offset = np.array([0.01, -0.002])
+    com, velocity, zmp = np.array([0.004, 0.003]), np.array([0.03, -0.02]), np.array([0.01, 0.005])
+    com_ref, velocity_ref, zmp_ref = np.array([0.0, 0.001]), np.array([0.02, 0.0]), np.array([0.002, 0.0])
+    p_d = zmp_ref + (1 + 2.0 / omega) * ((com + velocity / omega) - (com_ref + velocity_ref / omega))
+    rate = 3.0 * (zmp - p_d) + 5.0 * (com_ref - com) - 7.0 * np.array([0.01, -0.002])
+    offset = stabilizer.correction(estimate(com, velocity, zmp), com_ref, velocity_ref, zmp_ref, 0.01)
+    np.testing.assert_allclose(stabilizer.desired_zmp, p_d, rtol=1e-12)  # inside the feet: not clamped
+    np.testing.assert_allclose(offset, np.array([0.01, -0.002]) + 0.01 * rate, rtol=1e-12)
+    # The offset is bounded by max_offset on each axis.
+    stabilizer.offset = np.array([0.0399, -0.0399])
+    offset = stabilizer.correction(estimate(com - 1.0, velocity, zmp), com_ref, velocity_ref, zmp_ref, 0.01)
+    assert offset[0] == 0.04
+
+
+def test_the_clamp_is_the_closest_point_of_the_nearest_edge():
+    stabilizer = DcmStabilizer(com_height=0.88)
+    # The DCM straight ahead of the feet, mid-way between them: the desired ZMP on the front edge.
+    stabilizer.correction(estimate([0.0, 0.0], [1.0, 0.0], [0.0, 0.0]), np.zeros(2), np.zeros(2), np.zeros(2), 0.005)
+    np.testing.assert_allclose(stabilizer.desired_zmp, [0.105, 0.0], atol=1e-12)
+    # Off to the right of the right foot's outer edge.
+    stabilizer.correction(estimate([0.02, -0.2], [0.0, -0.3], [0.0, 0.0]), np.zeros(2), np.zeros(2), np.zeros(2), 0.005)
+    p = stabilizer.desired_zmp
+    assert abs(p[1] + 0.155) < 1e-12 and -0.105 < p[0] < 0.105
