@@ -18,7 +18,7 @@ from robot_ctrl.modes import FilterMode
 from robot_ctrl.robot import load_robot
 from robot_ctrl.scenarios.drawer import run_drawer
 from robot_ctrl.scenarios.drawer_task import DrawerTask
-from robot_ctrl.scenarios.walk_reach_synthesis import load_primitives
+from robot_ctrl.synthesis.learned import load_primitives
 from robot_ctrl.synthesis.synthesizer import Synthesizer
 
 

@@ -12,7 +12,7 @@ import time
 import numpy as np
 
 from robot_ctrl.robot import load_robot
-from robot_ctrl.scenarios.walk_reach_synthesis import load_primitives
+from robot_ctrl.synthesis.learned import load_primitives
 from robot_ctrl.synthesis.synthesizer import Synthesizer, WalkReachGoal
 
 DT = 0.005

@@ -73,7 +73,7 @@ _EXPORTS = {
     # scenarios: one user task each
     "run_walk": "robot_ctrl.scenarios.walk", "WalkSettings": "robot_ctrl.scenarios.walk",
     "run_balance": "robot_ctrl.scenarios.balance", "run_drawer": "robot_ctrl.scenarios.drawer",
-    "DrawerTask": "robot_ctrl.scenarios.drawer_task", "load_primitives": "robot_ctrl.scenarios.walk_reach_synthesis",
+    "DrawerTask": "robot_ctrl.scenarios.drawer_task", "load_primitives": "robot_ctrl.synthesis.learned",
 }
 
 __all__ = sorted(_EXPORTS)

@@ -12,8 +12,8 @@ import time
 import pytest
 
 from robot_ctrl.cli import main
+from robot_ctrl.eval.drawer_campaign import DRAWN_DISTANCES, draw_trials, read_trials, summarize
 from robot_ctrl.modes import FilterMode, SpeedClass
-from robot_ctrl.scenarios.campaign import DRAWN_DISTANCES, draw_trials, read_trials, summarize
 
 TRIALS = """# distance slot speed [jump_time jump_distance]
 1.6 back_left slow
@@ -83,8 +83,13 @@ def test_trials_from_a_file_and_drawn_at_random(tmp_path):
     (["--n", "2", "--method", "magic"], "--method magic is not one of ours"),
     (["--n", "2", "--address", "1.2.3.4:6379"], "--address names a Ray cluster"),
     (["--trials", "/nonexistent/trials.txt"], "No such file"),
+    (["--trials", "TRIALS_TOO_NEAR"],
+     "trial 000_ours_back_left_0.500m_slow: distance = 0.5 m is outside the allowed range"),
 ])
 def test_bad_campaign_input_is_refused_with_one_line(args, message, capsys, tmp_path):
+    too_near = tmp_path / "too_near.txt"
+    too_near.write_text("0.5 back_left slow\n")  # nearer than the comfort distance and a short step
+    args = [str(too_near) if a == "TRIALS_TOO_NEAR" else a for a in args]
     assert main(["campaign", *args, "--out", str(tmp_path / "c")]) == 2
     err = capsys.readouterr().err
     assert message in err and len(err.strip().splitlines()) == 1, err

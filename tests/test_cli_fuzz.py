@@ -68,8 +68,8 @@ def no_work(monkeypatch):
     import robot_ctrl.eval.campaign_backends as campaign_backends
     import robot_ctrl.hw.hardware as hardware
     import robot_ctrl.scenarios.group_walk as group_walk
-    import robot_ctrl.scenarios.walk_reach_synthesis as synthesis
     import robot_ctrl.synthesis.demonstrations as demonstrations
+    import robot_ctrl.synthesis.learned as synthesis
 
     def start(*args, **kwargs):
         raise Started()

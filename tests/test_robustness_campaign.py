@@ -4,8 +4,8 @@ import json
 
 from robot_ctrl.cli import main
 from robot_ctrl.eval.campaign_backends import LocalBackend
+from robot_ctrl.eval.robustness_campaign import run_robustness
 from robot_ctrl.eval.robustness_report import render_robustness
-from robot_ctrl.scenarios.robustness import run_robustness
 
 
 def test_a_small_campaign(tmp_path):

@@ -8,7 +8,7 @@ import pytest
 
 from robot_ctrl.cli import main
 from robot_ctrl.control.path_follower import PathFollower, WalkGoal
-from robot_ctrl.scenarios.robustness import push_phases
+from robot_ctrl.eval.robustness_campaign import push_phases
 
 
 def test_one_metre_walk_does_not_fall(tmp_path):

@@ -6,12 +6,13 @@ import math
 import numpy as np
 import pytest
 
-from robot_ctrl.scenarios.walk_reach_synthesis import GoalJump, load_primitives, run_synthesis
+from robot_ctrl.scenarios.walk_reach_synthesis import GoalJump, run_synthesis
 from robot_ctrl.synthesis.demonstrations import (
     DemonstrationSet,
     default_dataset_path,
     generate_demonstrations,
 )
+from robot_ctrl.synthesis.learned import load_primitives
 from robot_ctrl.synthesis.lwr import LocallyWeightedRegression
 from robot_ctrl.synthesis.oscillator import hopf, phase, rk4_step, star_coupled
 from robot_ctrl.synthesis.source_map import SourceMap, delay_rotations
@@ -211,7 +212,7 @@ def test_learned_primitives_are_cached_and_learned_anew_when_the_demonstrations_
                                                                                       monkeypatch):
     import dataclasses
 
-    from robot_ctrl.scenarios.walk_reach_synthesis import load_demonstrations, load_primitives
+    from robot_ctrl.synthesis.learned import load_demonstrations, load_primitives
     from robot_ctrl.synthesis.primitives import WalkReachPrimitives
 
     monkeypatch.setenv("ROBOT_CTRL_CACHE", str(tmp_path / "cache"))

@@ -5,14 +5,17 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from robot_ctrl.cli.options import check_ranges, log_line
+from robot_ctrl.cli.options import backend_args, backend_of, check_ranges, log_line
+from robot_ctrl.cli.robot_runs import check_drawer_tasks
 from robot_ctrl.modes import FilterMode
 from robot_ctrl.robot.config import ConfigError
 
 
 def _campaign(args: argparse.Namespace) -> int:
-    from robot_ctrl.eval.campaign_backends import open_backend
-    from robot_ctrl.scenarios import campaign
+    from robot_ctrl.eval import drawer_campaign as campaign
+    from robot_ctrl.robot.model import load_robot
+    from robot_ctrl.scenarios.drawer_task import DrawerTask
+    from robot_ctrl.synthesis.synthesizer import GoalJump
 
     check_ranges("campaign", args)
     try:
@@ -23,10 +26,12 @@ def _campaign(args: argparse.Namespace) -> int:
             trials = campaign.read_trials(args.trials, methods, dynfilter)
         else:
             trials = campaign.draw_trials(args.n, args.seed, speeds, methods, dynfilter)
-        campaign.check_trials(trials)
-        backend = open_backend(args.backend, args.jobs, args.address)
     except (OSError, ValueError) as exc:
         raise ConfigError(f"campaign: {exc}".replace("speed ", "--speeds ").replace("method ", "--method ")) from exc
+    tasks = {f"campaign: trial {t.id}": DrawerTask(t.distance, t.slot, (GoalJump(*t.jump),) if t.jump else (),
+                                                   t.dynfilter, speed=t.speed) for t in trials}
+    check_drawer_tasks(tasks, load_robot("talos"))
+    backend = backend_of(args, "campaign")
     args.out.mkdir(parents=True, exist_ok=True)
     result = campaign.run_drawer_campaign(trials, args.out, backend, timeout=args.timeout, progress=not args.quiet,
                                           log=log_line)
@@ -64,10 +69,7 @@ def add_parsers(sub) -> None:
     p.add_argument("--dynfilter", choices=[m.value for m in FilterMode], default=FilterMode.FULL.value,
                    help="dynamic filter of every trial")
     p.add_argument("--jobs", type=int, default=2, help="trials at a time, 1..256")
-    p.add_argument("--backend", choices=("local", "ray"), default="local",
-                   help="local: this machine's processes; ray: a Ray cluster (--address) or a Ray instance "
-                        "started here")
-    p.add_argument("--address", help="with --backend ray: the cluster's head (ray://HOST:10001 or HOST:6379)")
+    backend_args(p)
     p.add_argument("--timeout", type=float, default=600.0, help="wall-clock limit of one trial [s], 10..86400")
     p.add_argument("--out", type=Path, default=Path("runs/campaign"), help="output folder")
     p.add_argument("--quiet", action="store_true", help="no progress bar")

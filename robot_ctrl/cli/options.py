@@ -61,6 +61,24 @@ def check_ranges(command: str, args: argparse.Namespace) -> None:
             raise ConfigError(f"{command}: {option} {value} is outside the allowed range [{lo:g}, {hi:g}]")
 
 
+def backend_args(p) -> None:
+    """``--backend`` and ``--address`` of a campaign (``eval/campaign_backends.py``)."""
+    p.add_argument("--backend", choices=("local", "ray"), default="local",
+                   help="local: this machine's processes; ray: a Ray cluster (--address) or a Ray instance "
+                        "started here (docs/campaigns.md)")
+    p.add_argument("--address", help="with --backend ray: the cluster's head (ray://HOST:10001 or HOST:6379)")
+
+
+def backend_of(args: argparse.Namespace, command: str):
+    """The campaign backend ``--backend``, ``--jobs`` and ``--address`` ask for."""
+    from robot_ctrl.eval.campaign_backends import open_backend
+
+    try:
+        return open_backend(args.backend, args.jobs, args.address)
+    except ValueError as exc:
+        raise ConfigError(f"{command}: {exc}") from exc
+
+
 def time_distance(text: str, option: str):
     """``TIME:DISTANCE`` ([s]:[m], e.g. ``3:2.4``) as a :class:`~robot_ctrl.synthesis.synthesizer.GoalJump`;
     the values' own ranges are the task's to check."""

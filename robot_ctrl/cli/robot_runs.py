@@ -7,6 +7,8 @@ from pathlib import Path
 
 from robot_ctrl.cli.options import (
     DRAWER_OPTIONS,
+    backend_args,
+    backend_of,
     base_state_arg,
     check_ranges,
     log_arg,
@@ -65,18 +67,14 @@ def _drawer(args: argparse.Namespace) -> int:
     from robot_ctrl.robot.model import load_robot
     from robot_ctrl.scenarios.drawer import run_drawer
     from robot_ctrl.scenarios.drawer_task import DrawerTask
-    from robot_ctrl.scenarios.walk_reach_synthesis import load_demonstrations, load_primitives
+    from robot_ctrl.synthesis.learned import load_primitives
 
     jumps = tuple(time_distance(j, "--goal-jump") for j in args.goal_jump)
     task = DrawerTask(args.distance, args.slot, jumps, FilterMode(args.dynfilter), base_state=base_state_of(args),
                       speed=SpeedClass(args.speed), position_feedback=not args.no_position_feedback)
     parse_disturbances(args)
     robot = load_robot(args.robot)
-    try:  # before anything is learned or started
-        demos = load_demonstrations(robot)
-        task.check(demos.comfort_distance, min(t.lengths[1] for t in demos.trials))
-    except (FileNotFoundError, ValueError) as exc:
-        raise ConfigError(f"drawer: {named(str(exc), DRAWER_OPTIONS)}") from exc
+    check_drawer_tasks({"drawer": task}, robot, DRAWER_OPTIONS)
     primitives = load_primitives(robot)
     placement = DrawerPlacement(task.distance, task.slot, tuple((j.time, j.distance) for j in jumps))
     robot, disturbances, hardware = simulation(args, robot, prop=placement)
@@ -90,9 +88,24 @@ def _drawer(args: argparse.Namespace) -> int:
     return finish(args, report)
 
 
+def check_drawer_tasks(tasks: dict, robot, options: dict[str, str] | None = None) -> None:
+    """Refuse, with one line, a drawer task the learned primitives cannot do (``DrawerTask.check``),
+    before anything is learned or started. ``tasks``: what to call each in the message → the task;
+    ``options``: the command-line options that set the task's settings, named in the message."""
+    from robot_ctrl.synthesis.learned import load_demonstrations
+
+    label = "drawer"
+    try:
+        demos = load_demonstrations(robot)
+        shortest = min(t.lengths[1] for t in demos.trials)
+        for label, task in tasks.items():
+            task.check(demos.comfort_distance, shortest)
+    except (FileNotFoundError, ValueError) as exc:
+        raise ConfigError(f"{label}: {named(str(exc), options) if options else exc}") from exc
+
+
 def _robustness(args: argparse.Namespace) -> int:
-    from robot_ctrl.eval.campaign_backends import open_backend
-    from robot_ctrl.scenarios import robustness
+    from robot_ctrl.eval import robustness_campaign as robustness
 
     check_ranges("robustness", args)
     single, double = step_timing(args, "robustness")
@@ -100,11 +113,7 @@ def _robustness(args: argparse.Namespace) -> int:
     if args.quick:  # a smoke test of the campaign: two directions, one phase, two magnitudes
         grid = dict(directions=(0, -90), phases=("single_mid",), magnitudes=(0.1, 0.2),
                     mismatch={k: robustness.MISMATCH[k] for k in ("mass ×1.15", "latency 10 ms")})
-    try:
-        backend = open_backend(args.backend, args.jobs, args.address)
-    except ValueError as exc:
-        raise ConfigError(f"robustness: {exc}") from exc
-    robustness.run_robustness(args.out, backend, log=log_line, progress=not args.quiet, single=single, double=double,
+    robustness.run_robustness(args.out, backend_of(args, "robustness"), log=log_line, progress=not args.quiet, single=single, double=double,
                               **grid)
     return 0
 
@@ -185,10 +194,7 @@ def add_robustness_parser(sub) -> None:
                                    "report under DIR.")
     p.add_argument("--out", type=Path, default=Path("runs/robustness"), help="output folder")
     p.add_argument("--jobs", type=int, default=2, help="walks run at a time, 1..64")
-    p.add_argument("--backend", choices=("local", "ray"), default="local",
-                   help="local: this machine's processes; ray: a Ray cluster (--address) or a Ray instance "
-                        "started here (docs/campaigns.md)")
-    p.add_argument("--address", help="with --backend ray: the cluster's head")
+    backend_args(p)
     p.add_argument("--quick", action="store_true", help="a small grid (2 directions, 1 phase, 2 magnitudes)")
     step_timing_args(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")

@@ -11,7 +11,7 @@ from robot_ctrl.robot.config import ConfigError
 
 def _synth_primitives(args: argparse.Namespace):
     from robot_ctrl.robot.model import load_robot
-    from robot_ctrl.scenarios.walk_reach_synthesis import load_primitives
+    from robot_ctrl.synthesis.learned import load_primitives
 
     robot = load_robot(args.robot)
     try:

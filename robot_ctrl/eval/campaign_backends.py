@@ -77,6 +77,7 @@ class RayBackend:
                 options.update(num_cpus=jobs, object_store_memory=LOCAL_RAY_OBJECT_STORE)
             ray.init(address=address, **options)
         self._task = ray.remote(num_cpus=1)(run_trial)
+        self._timeout = 0.0  # [s] per trial, given to start
         self._waiting: list[Trial] = []
         self._running: dict = {}  # object ref -> trial
 
