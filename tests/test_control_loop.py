@@ -122,9 +122,10 @@ def test_sigterm_closes_the_hardware_and_exits_130(tmp_path):
     import sys
     import time
 
-    process = subprocess.Popen([sys.executable, "-m", "robot_ctrl.cli", "walk", "--distance", "10", "--quiet",
+    process = subprocess.Popen([sys.executable, "-m", "robot_ctrl.cli", "walk", "--distance", "60", "--quiet",
                                 "--out", str(tmp_path)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    time.sleep(6.0)  # into the walk
+    time.sleep(6.0)  # into the walk: 60 m take minutes of simulated time, far more than 6 s of wall time anywhere
+    assert process.poll() is None, "the walk ended before the signal"
     process.send_signal(signal.SIGTERM)
     out, err = process.communicate(timeout=30)
     assert process.returncode == 130, err
