@@ -8,10 +8,14 @@ import numpy as np
 import pytest
 
 from robot_ctrl.cli import main
+from robot_ctrl.eval.feasible_demonstrations import demonstration_from_run, touchdowns
+from robot_ctrl.geometry import GRAVITY
 from robot_ctrl.geometry.drawer import DRAWER_READINGS, DrawerGeometry
 from robot_ctrl.hw.drawer_cabinet import DrawerPlacement
 from robot_ctrl.hw.mujoco_backend import MujocoBackend
 from robot_ctrl.hw.types import JointCommand
+from robot_ctrl.robot.model import load_robot
+from robot_ctrl.synthesis.demonstrations import upper_body_joints
 
 
 def test_drawer_task_end_to_end(tmp_path):
@@ -35,6 +39,26 @@ def test_drawer_task_end_to_end(tmp_path):
     assert main(["report", str(tmp_path)]) == 0
     page = (tmp_path / "report.html").read_text()
     assert page.count("data:image/png;base64,") == 6 and "Fig. 3.47" in page
+    # The run is a feasible demonstration (thesis 3.8.3): its last normal cycle, short cycle and
+    # standing, cut at measured touch-downs, with the realized signals.
+    talos = load_robot("talos")
+    upper = np.array([talos.joint_names.index(n) for n in upper_body_joints(talos)])
+    weight = talos.mass * GRAVITY
+    demo = demonstration_from_run(dict(series), "back_left", upper, weight)
+    steps = touchdowns(series["drawer_t"], series["drawer_grf"], weight)
+    first = steps[np.argmin(np.abs(steps - series["action_starts"][-4, 0]))]
+    second = steps[np.argmin(np.abs(steps - series["action_starts"][-3, 0]))]
+    assert abs((second - first) - demo.bounds[1] * 0.02) <= 0.01 + 1e-9  # the normal cycle: touch-down to touch-down
+    stand = series["action_starts"][-2, 0]  # the synthesis's switch to standing: not a touch-down
+    at = [series["drawer_base"][np.searchsorted(series["drawer_t"], when - 1e-9), 0] for when in (first, second, stand)]
+    np.testing.assert_allclose(demo.lengths[:2], np.diff(at), atol=1e-3)  # the pelvis advance, touch-down to touch-down
+    assert abs(demo.lengths[:2].sum() - sum(report["realized_step_lengths_m"][-3:-1])) < 0.02  # the report's cut
+    walked = [demo.action(a)[:-1, 0].sum() * 0.02 for a in range(2)]  # the realized forward speed, integrated
+    np.testing.assert_allclose(walked, demo.lengths[:2], atol=0.01)
+    assert np.isfinite(demo.signals).all() and demo.signals.shape == (demo.bounds[-1] + 1, 3 + len(upper))
+    np.testing.assert_allclose(demo.body[:, 3:][:, upper], demo.signals[:, 3:])  # the body holds every joint
+    assert (demo.signals[:, 3:] >= talos.lower[upper] - 1e-3).all() and (demo.signals[:, 3:] <= talos.upper[upper] + 1e-3).all()
+    assert abs(demo.body[:, 0].mean() - series["base_pos"][:, 2].mean()) < 0.02  # base height, not a joint
 
 
 def test_the_demo_drawer_task_succeeds(tmp_path):

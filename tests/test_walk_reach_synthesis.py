@@ -6,11 +6,13 @@ import math
 import numpy as np
 import pytest
 
+from robot_ctrl.eval.feasible_demonstrations import demonstration_from_run, touchdowns
 from robot_ctrl.scenarios.walk_reach_synthesis import GoalJump, run_synthesis
 from robot_ctrl.synthesis.demonstrations import (
     DemonstrationSet,
     default_dataset_path,
     generate_demonstrations,
+    kinematic_dataset_path,
 )
 from robot_ctrl.synthesis.learned import load_primitives
 from robot_ctrl.synthesis.lwr import LocallyWeightedRegression
@@ -119,8 +121,9 @@ def test_blending_weight_and_sign_rule_are_continuous():
 
 # -- learned model and synthesizer ----------------------------------------------------------------
 def test_demonstration_set_is_versioned_and_regenerates_identically(talos):
-    stored = DemonstrationSet.load(default_dataset_path("talos"))
+    stored = DemonstrationSet.load(kinematic_dataset_path("talos"))
     fresh = generate_demonstrations(talos)
+    assert stored.provenance["source"] == "kinematic"
     assert stored.channels == fresh.channels and len(stored.trials) == 30
     for a, b in zip(stored.trials, fresh.trials):
         assert a.slot == b.slot
@@ -239,3 +242,21 @@ def test_learned_primitives_are_cached_and_learned_anew_when_the_demonstrations_
     third = load_primitives(talos, changed)
     assert learned == [demos.comfort_distance, demos.comfort_distance + 0.01]
     assert third.comfort_distance == first.comfort_distance + 0.01
+
+
+def test_touchdowns_are_contacts_after_a_swing():
+    """A touch-down is a foot's force rising through a tenth of the weight after 0.1 s without
+    contact: a heel bouncing on landing is one touch-down, a foot that was down from the start none."""
+    t = np.arange(0.0, 2.0, 0.005)
+    left = np.where((t < 0.5) | (t >= 0.9), 400.0, 0.0)  # swing 0.5-0.9 s, lands at 0.9 s
+    left[(t >= 0.92) & (t < 0.93)] = 0.0  # bounces once, 20 ms after landing
+    right = np.where(t < 1.2, 400.0, np.where(t >= 1.6, 300.0, 50.0))  # swing 1.2-1.6 s (50 N: below contact)
+    np.testing.assert_allclose(touchdowns(t, np.stack([left, right], axis=1), 1000.0), [0.9, 1.6])
+
+
+def test_a_run_without_a_finished_sequence_is_not_a_demonstration():
+    talos_upper = np.arange(3)
+    series = {"action_starts": np.array([[2.7, 1], [4.7, 2], [7.5, 3]])}  # no end: the run stopped while standing
+    with pytest.raises(ValueError, match="do not end with a normal cycle, a short cycle and standing"):
+        demonstration_from_run(series | {"drawer_t": np.zeros(1), "drawer_grf": np.zeros((1, 2))}, "front_left",
+                               talos_upper, 1000.0)

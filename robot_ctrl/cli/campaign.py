@@ -3,9 +3,18 @@
 from __future__ import annotations
 
 import argparse
+from dataclasses import replace
 from pathlib import Path
 
-from robot_ctrl.cli.options import backend_args, backend_of, check_ranges, log_line
+from robot_ctrl.cli.options import (
+    backend_args,
+    backend_of,
+    check_ranges,
+    dataset_arg,
+    log_line,
+    parse_sources,
+    sources_arg,
+)
 from robot_ctrl.cli.robot_runs import check_drawer_tasks
 from robot_ctrl.modes import FilterMode
 from robot_ctrl.robot.config import ConfigError
@@ -28,9 +37,14 @@ def _campaign(args: argparse.Namespace) -> int:
             trials = campaign.draw_trials(args.n, args.seed, speeds, methods, dynfilter)
     except (OSError, ValueError) as exc:
         raise ConfigError(f"campaign: {exc}".replace("speed ", "--speeds ").replace("method ", "--method ")) from exc
+    sources = parse_sources(args.sources, "campaign: --sources")
+    trials = [replace(t, index=k, sources=f"{first}+{extra}") for k, (t, (first, extra)) in
+              enumerate((t, s) for t in trials for s in sources)]
+    if args.dataset is not None:
+        trials = [replace(t, dataset=str(args.dataset.resolve())) for t in trials]
     tasks = {f"campaign: trial {t.id}": DrawerTask(t.distance, t.slot, (GoalJump(*t.jump),) if t.jump else (),
                                                    t.dynfilter, speed=t.speed) for t in trials}
-    check_drawer_tasks(tasks, load_robot("talos"))
+    check_drawer_tasks(tasks, load_robot("talos"), dataset=args.dataset)
     backend = backend_of(args, "campaign")
     args.out.mkdir(parents=True, exist_ok=True)
     result = campaign.run_drawer_campaign(trials, args.out, backend, timeout=args.timeout, progress=not args.quiet,
@@ -38,7 +52,7 @@ def _campaign(args: argparse.Namespace) -> int:
     if result is None:
         raise KeyboardInterrupt("the campaign stopped; run the same command again to finish it")
     for s in result["summary"]:
-        log_line(f"{s['method']} {s['speed']:>7}: {s['trials']} trials, {s['falls']} falls, "
+        log_line(f"{s['method']} {s['sources']} {s['speed']:>7}: {s['trials']} trials, {s['falls']} falls, "
                  f"{s['successes']} successes, {s['errors']} errors; step error median "
                  f"{_mm(s['step_length_error_median_m'])}, max {_mm(s['step_length_error_max_m'])}; hand error max "
                  f"{_mm(s['hand_error_max_m'])}")
@@ -68,6 +82,8 @@ def add_parsers(sub) -> None:
     p.add_argument("--method", default="ours", help="comma-separated methods (ours)")
     p.add_argument("--dynfilter", choices=[m.value for m in FilterMode], default=FilterMode.FULL.value,
                    help="dynamic filter of every trial")
+    dataset_arg(p)
+    sources_arg(p, many=True)
     p.add_argument("--jobs", type=int, default=2, help="trials at a time, 1..256")
     backend_args(p)
     p.add_argument("--timeout", type=float, default=600.0, help="wall-clock limit of one trial [s], 10..86400")

@@ -48,6 +48,7 @@ RANGES: dict[tuple[str, str], tuple[float, float]] = {
     ("campaign", "--n"): (1, 10000),
     ("campaign", "--seed"): (0, 2**32 - 1),
     ("campaign", "--jobs"): (1, 256),
+    ("synth-demos", "--jobs"): (1, 256),
     ("campaign", "--timeout"): (10.0, 86400.0),
 }
 
@@ -177,3 +178,34 @@ def base_state_arg(p) -> None:
                    help="the controller's base pose and velocity: the simulator's (default in simulation), or "
                         "estimated from the IMU, the encoders and the foot force sensors (control/base_estimator.py; "
                         "the only one on real servos)")
+
+
+def dataset_arg(p) -> None:
+    p.add_argument("--dataset", type=Path, default=None,
+                   help="demonstration set the walk-and-reach primitives are learned from (default: the robot's, "
+                        "models/<robot>_walk_reach_*.npz; docs/synthesis.md)")
+
+
+MAX_SOURCES = 8  # periodic sources per group of the mixture model
+
+
+def parse_sources(text: str, option: str) -> tuple[tuple[int, int], ...]:
+    """``FIRST+EXTRA[,FIRST+EXTRA...]`` (e.g. ``4+3``: periodic sources for action 1, more for actions
+    2 and 3) as pairs; one line naming ``option`` and the ranges otherwise."""
+    pairs = []
+    for item in text.split(","):
+        try:
+            first, extra = (int(v) for v in item.split("+"))
+        except ValueError:
+            raise ConfigError(f"{option} {item!r} is not FIRST+EXTRA (e.g. 4+3)") from None
+        if not (1 <= first <= MAX_SOURCES and 0 <= extra <= MAX_SOURCES):
+            raise ConfigError(f"{option} {item}: FIRST must be in [1, {MAX_SOURCES}] and EXTRA in [0, {MAX_SOURCES}]")
+        pairs.append((first, extra))
+    return tuple(pairs)
+
+
+def sources_arg(p, many: bool = False) -> None:
+    p.add_argument("--sources", default="3+2", metavar="FIRST+EXTRA" + ("[,...]" if many else ""),
+                   help="periodic sources of the learned mixture model: FIRST for action 1, EXTRA more for actions 2 "
+                        "and 3" + (", comma-separated to compare (e.g. 3+2,4+3,5+4; thesis Fig. 3.41)" if many else
+                                   " (default 3+2; the thesis's robot used 4+3)"))

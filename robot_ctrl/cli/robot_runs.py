@@ -11,9 +11,12 @@ from robot_ctrl.cli.options import (
     backend_of,
     base_state_arg,
     check_ranges,
+    dataset_arg,
     log_arg,
     log_line,
     named,
+    parse_sources,
+    sources_arg,
     step_timing,
     step_timing_args,
     time_distance,
@@ -73,9 +76,12 @@ def _drawer(args: argparse.Namespace) -> int:
     task = DrawerTask(args.distance, args.slot, jumps, FilterMode(args.dynfilter), base_state=base_state_of(args),
                       speed=SpeedClass(args.speed), position_feedback=not args.no_position_feedback)
     parse_disturbances(args)
+    sources = parse_sources(args.sources, "drawer: --sources")
+    if len(sources) != 1:
+        raise ConfigError(f"drawer: --sources {args.sources!r}: one FIRST+EXTRA (a campaign compares several)")
     robot = load_robot(args.robot)
-    check_drawer_tasks({"drawer": task}, robot, DRAWER_OPTIONS)
-    primitives = load_primitives(robot)
+    check_drawer_tasks({"drawer": task}, robot, DRAWER_OPTIONS, args.dataset)
+    primitives = load_primitives(robot, args.dataset, sources[0])
     placement = DrawerPlacement(task.distance, task.slot, tuple((j.time, j.distance) for j in jumps))
     robot, disturbances, hardware = simulation(args, robot, prop=placement)
     with hardware as hw, on_the_robot(args, robot, hw, task.control_dt) as (recorders, pacer):
@@ -88,15 +94,16 @@ def _drawer(args: argparse.Namespace) -> int:
     return finish(args, report)
 
 
-def check_drawer_tasks(tasks: dict, robot, options: dict[str, str] | None = None) -> None:
+def check_drawer_tasks(tasks: dict, robot, options: dict[str, str] | None = None, dataset: Path | None = None) -> None:
     """Refuse, with one line, a drawer task the learned primitives cannot do (``DrawerTask.check``),
     before anything is learned or started. ``tasks``: what to call each in the message → the task;
-    ``options``: the command-line options that set the task's settings, named in the message."""
+    ``options``: the command-line options that set the task's settings, named in the message;
+    ``dataset``: the demonstrations the primitives are learned from (default: the robot's)."""
     from robot_ctrl.synthesis.learned import load_demonstrations
 
     label = "drawer"
     try:
-        demos = load_demonstrations(robot)
+        demos = load_demonstrations(robot, dataset)
         shortest = min(t.lengths[1] for t in demos.trials)
         for label, task in tasks.items():
             task.check(demos.comfort_distance, shortest)
@@ -180,6 +187,8 @@ def _add_drawer(sub, sim) -> None:
     p.add_argument("--no-position-feedback", action="store_true",
                    help="the synthesis alone steers the walk: no feedback of the pelvis's lag, no stop at the final "
                         "footsteps, no waiting for the pelvis, no standing lean (docs/drawer.md)")
+    dataset_arg(p)
+    sources_arg(p)
     base_state_arg(p)
     p.add_argument("--out", type=Path, help="write DIR/report.json, DIR/timeseries.npz and DIR/report.html")
     log_arg(p)

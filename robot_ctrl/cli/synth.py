@@ -5,7 +5,16 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from robot_ctrl.cli.options import time_distance
+from robot_ctrl.cli.options import (
+    backend_args,
+    backend_of,
+    check_ranges,
+    dataset_arg,
+    log_line,
+    parse_sources,
+    sources_arg,
+    time_distance,
+)
 from robot_ctrl.robot.config import ConfigError
 
 
@@ -50,31 +59,90 @@ def _synth(args: argparse.Namespace) -> int:
 
 
 def _synth_quality(args: argparse.Namespace) -> int:
-    _, primitives = _synth_primitives(args)
-    print("action  sources  Q anechoic  Q PCA (same count)  PCA components for the same Q")
-    for row in primitives.quality:
-        print(f"{row['action']:>6}  {row['sources']:>7}  {row['Q_anechoic']:>10.4f}  {row['Q_pca']:>18.4f}  "
-              f"{row['pca_needed']:>29}")
+    from robot_ctrl.synthesis.stepwise import learn_stepwise, quality_table, resample_actions
+
+    splits = parse_sources(args.sources, "synth-quality: --sources")
+    robot, primitives = _synth_primitives(args)
+    from robot_ctrl.synthesis.learned import load_demonstrations
+
+    demos = load_demonstrations(robot, args.dataset)
+    X = resample_actions(demos, 50)
+    print(f"{demos.provenance.get('source', 'unknown')} demonstrations: {len(demos.trials)} trials")
+    print("sources  action  sources (s0 + periodic)  Q anechoic  Q PCA (same count)  PCA components for the same Q")
+    for first, extra in splits:
+        rows = primitives.quality if (first, extra) == primitives.sources else quality_table(
+            X, learn_stepwise(X, first, extra))
+        for row in rows:
+            print(f"{f'{first}+{extra}':>7}  {row['action']:>6}  {row['sources']:>23}  {row['Q_anechoic']:>10.4f}  "
+                  f"{row['Q_pca']:>18.4f}  {row['pca_needed']:>29}")
+    return 0
+
+
+def _synth_transition(args: argparse.Namespace) -> int:
+    from robot_ctrl.eval.transition_postures import plot_transition_postures, transition_postures, transition_summary
+    from robot_ctrl.synthesis.step_planning import MAX_GOAL_DISTANCE
+
+    try:
+        distances = tuple(float(v) for v in args.distances.split(","))
+    except ValueError:
+        distances = ()
+    if len(distances) != 2 or not all(0 < d <= MAX_GOAL_DISTANCE for d in distances):
+        raise ConfigError(f"synth-transition: --distances {args.distances!r} must be two distances in "
+                          f"(0, {MAX_GOAL_DISTANCE}] m, e.g. 1.10,1.30")
+    robot, primitives = _synth_primitives(args)
+    if args.slot not in primitives.slots:
+        raise ConfigError(f"synth-transition: --slot {args.slot!r} is not one of {', '.join(primitives.slots)}")
+    try:
+        postures = transition_postures(robot, primitives, distances, args.slot)
+    except ValueError as exc:
+        raise ConfigError(f"synth-transition: --distances: {exc}") from exc
+    s = transition_summary(postures)
+    print(f"short cycles {s['short_cycles_m'][0]:.3f} and {s['short_cycles_m'][1]:.3f} m before standing: at the "
+          f"transition the upper body differs by up to {s['transition_max_joint_difference_rad']:.3f} rad, the left "
+          f"hand by {s['transition_left_hand_distance_m'] * 1e3:.1f} mm; at the end by "
+          f"{s['final_max_joint_difference_rad']:.3f} rad and {s['final_left_hand_distance_m'] * 1e3:.1f} mm")
+    if args.plot is not None:
+        print(f"wrote {plot_transition_postures(robot, postures, args.plot)}")
     return 0
 
 
 def _synth_demos(args: argparse.Namespace) -> int:
     from robot_ctrl.robot.model import load_robot
-    from robot_ctrl.synthesis.demonstrations import default_dataset_path, generate_demonstrations
+    from robot_ctrl.synthesis.demonstrations import (
+        feasible_dataset_path,
+        generate_demonstrations,
+        kinematic_dataset_path,
+    )
 
     robot = load_robot(args.robot)
-    path = args.out or default_dataset_path(robot.name)
-    demos = generate_demonstrations(robot)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    demos.save(path)
-    print(f"wrote {len(demos.trials)} demonstrations ({len(demos.channels)} channels, dt {demos.dt} s) to {path}")
+    if args.from_physics:
+        from robot_ctrl.eval.feasible_demonstrations import record_feasible_set
+
+        check_ranges("synth-demos", args)
+        source = args.source or kinematic_dataset_path(robot.name)
+        if not source.is_file():
+            raise ConfigError(f"synth-demos: --source {source} does not exist")
+        path = args.out or feasible_dataset_path(robot.name)
+        try:
+            demos = record_feasible_set(robot, source, args.runs, backend_of(args, "synth-demos"), path,
+                                        progress=not args.quiet, log=log_line)
+        except ValueError as exc:
+            raise ConfigError(f"synth-demos: {exc}") from exc
+        if demos is None:
+            raise KeyboardInterrupt("the runs stopped; run the same command again to finish them")
+    else:
+        path = args.out or kinematic_dataset_path(robot.name)
+        demos = generate_demonstrations(robot)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        demos.save(path)
+    print(f"wrote {len(demos.trials)} demonstrations ({len(demos.channels)} channels, dt {demos.dt} s, "
+          f"{demos.provenance['source']}) to {path}")
     return 0
 
 
 def add_parsers(sub, robot) -> None:
     data = argparse.ArgumentParser(add_help=False, parents=[robot])
-    data.add_argument("--dataset", type=Path, default=None,
-                      help="demonstration set (default: models/<robot>_walk_reach_demos.npz)")
+    dataset_arg(data)
     p = sub.add_parser("synth", parents=[data], help="walk-and-reach synthesis from learned primitives (kinematic)",
                        description="Plans the actions for a drawer at --distance (end-state comfort), synthesizes "
                                    "pelvis velocity and upper-body joint angles at 200 Hz until the sequence ends, "
@@ -89,10 +157,35 @@ def add_parsers(sub, robot) -> None:
     p.add_argument("--out", type=Path, default=None, help="folder for synth.json")
     p.set_defaults(run=_synth)
     p = sub.add_parser("synth-quality", parents=[data], help="approximation quality of the learned model vs PCA",
-                       description="Learns the stepwise anechoic model (s0 + 3 periodic sources for action 1, 2 more "
-                                   "for actions 2 and 3) and prints Q = 1 - |X - X^|^2/|X|^2 per action next to PCA "
-                                   "with the same number of sources.")
+                       description="Learns the stepwise anechoic model (s0 + FIRST periodic sources for action 1, "
+                                   "EXTRA more for actions 2 and 3) and prints Q = 1 - |X - X^|^2/|X|^2 per action next "
+                                   "to PCA with the same number of sources.")
+    sources_arg(p, many=True)
     p.set_defaults(run=_synth_quality)
-    p = sub.add_parser("synth-demos", parents=[robot], help="generate the walk-and-reach demonstration set (IK)")
-    p.add_argument("--out", type=Path, default=None, help="output .npz (default: models/<robot>_walk_reach_demos.npz)")
+    p = sub.add_parser("synth-transition", parents=[data], help="posture at the switch to standing vs the step before",
+                       description="Synthesizes two goals whose short cycles differ in length (the same comfort "
+                                   "distance at the end) and compares the upper body at the switch to standing and at "
+                                   "the end (thesis Fig. 3.38; kinematic).")
+    p.add_argument("--distances", default="1.10,1.30", help="two goal distances from the synthesis's start [m]")
+    p.add_argument("--slot", default="back_right", help="object slot")
+    p.add_argument("--plot", type=Path, default=None, help="PNG of both postures, side view")
+    p.set_defaults(run=_synth_transition)
+    p = sub.add_parser("synth-demos", parents=[robot], help="make a walk-and-reach demonstration set (IK, or physics)",
+                       description="Without --from-physics: generates the kinematic set (IK, no dynamics) into "
+                                   "models/<robot>_walk_reach_demos.npz. With --from-physics: plays 30 walk-and-reach "
+                                   "sequences (10 cabinets x the speed scalings 0.8, 0.92, 1.2) through the whole "
+                                   "pipeline in MuJoCo as a campaign (resumable, --jobs at a time) and records the "
+                                   "realized motion, cut at the measured touch-downs, into "
+                                   "models/<robot>_walk_reach_feasible.npz (thesis 3.8.3, docs/synthesis.md).")
+    p.add_argument("--from-physics", action="store_true", help="record the set from physics runs")
+    p.add_argument("--source", type=Path, default=None,
+                   help="with --from-physics: the set the runs' primitives are learned from (default: the kinematic set)")
+    p.add_argument("--runs", type=Path, default=Path("runs/feasible-demos"),
+                   help="with --from-physics: folder of the runs (rerun to finish an interrupted set)")
+    p.add_argument("--jobs", type=int, default=2, help="with --from-physics: runs at a time, 1..256")
+    backend_args(p)
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--out", type=Path, default=None,
+                   help="output .npz (default: models/<robot>_walk_reach_demos.npz, with --from-physics "
+                        "models/<robot>_walk_reach_feasible.npz)")
     p.set_defaults(run=_synth_demos)

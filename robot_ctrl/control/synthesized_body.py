@@ -21,7 +21,8 @@ class SynthesizedBody:
         self.upper = np.array([names.index(n) for n in upper_body_joints(robot)])  # joint order
         self._data = robot.pin.createData()
 
-    def _with(self, upper_q: np.ndarray, q: np.ndarray) -> np.ndarray:
+    def configuration(self, upper_q: np.ndarray, q: np.ndarray) -> np.ndarray:
+        """``q`` (Pinocchio configuration) with the upper body at ``upper_q``."""
         q = np.array(q, dtype=float)
         q[self.robot.q_index[self.upper]] = upper_q
         return q
@@ -30,7 +31,7 @@ class SynthesizedBody:
         """World hand positions [m] with the upper body at ``upper_q`` and the rest as in ``q``
         (Pinocchio configuration)."""
         r = self.robot
-        pin.framesForwardKinematics(r.pin, self._data, self._with(upper_q, q))
+        pin.framesForwardKinematics(r.pin, self._data, self.configuration(upper_q, q))
         return {s: self._data.oMf[r.frame_ids[f"{s}_hand"]].translation.copy() for s in SIDES}
 
     def hands_from_pelvis(self, upper_q: np.ndarray, q: np.ndarray, yaw: float) -> dict[str, np.ndarray]:
@@ -41,5 +42,5 @@ class SynthesizedBody:
 
     def com_from_pelvis(self, upper_q: np.ndarray, q: np.ndarray) -> np.ndarray:
         """Horizontal offset of the CoM from the pelvis (world axes) [m]."""
-        q = self._with(upper_q, q)
+        q = self.configuration(upper_q, q)
         return pin.centerOfMass(self.robot.pin, self._data, q)[:2] - q[:2]

@@ -16,7 +16,7 @@ from robot_ctrl.eval.html_report import figure_png
 #: step-length errors (Fig. 3.41), peak torque and GRF within the robot's limits (Fig. 3.47).
 THESIS = {"falls": "0 of 10 per speed class (Table 3.1)", "step_length_error": "< 10 mm, often < 5 mm (Fig. 3.41)",
           "peaks": "within the robot's limits, ratio < 1 (Fig. 3.47)"}
-SUMMARY_COLUMNS = (("method", "method"), ("speed", "speed"), ("trials", "trials"), ("falls", "falls"),
+SUMMARY_COLUMNS = (("method", "method"), ("sources", "sources"), ("speed", "speed"), ("trials", "trials"), ("falls", "falls"),
                    ("successes", "successes"), ("errors", "errors"),
                    ("step_length_error_median_m", "step error median [mm]"),
                    ("step_length_error_max_m", "step error max [mm]"),
@@ -42,15 +42,20 @@ def _label(axes, xlabels, ylabels) -> None:
         ax.legend(fontsize=7)
 
 
+def _group(row: dict) -> str:
+    return f"{row['method']} {row.get('sources', '3+2')}"
+
+
 def _histograms(rows: list[dict]):
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.4))
-    for method in sorted({r["method"] for r in rows}):
-        steps = [abs(e) * 1e3 for r in rows if r["method"] == method for e in r.get("step_length_errors_m") or []]
-        hands = [r["hand_error_m"] * 1e3 for r in rows if r["method"] == method and r.get("hand_error_m") is not None]
-        axes[0].hist(steps, bins=20, alpha=0.7, label=method)
-        axes[1].hist(hands, bins=20, alpha=0.7, label=method)
+    for label in sorted({_group(r) for r in rows}):
+        group = [r for r in rows if _group(r) == label]
+        steps = [abs(e) * 1e3 for r in group for e in r.get("step_length_errors_m") or []]
+        hands = [r["hand_error_m"] * 1e3 for r in group if r.get("hand_error_m") is not None]
+        axes[0].hist(steps, bins=20, alpha=0.7, label=label)
+        axes[1].hist(hands, bins=20, alpha=0.7, label=label)
     axes[0].axvline(10.0, color="k", ls="--", lw=1, label="thesis: < 10 mm")
     _label(axes, ("|realized − planned step length| [mm]", "right hand to object at the end [mm]"), ("count", "count"))
     return fig

@@ -43,10 +43,12 @@ class DrawerTrial:
     jump: tuple[float, float] | None = None  # (time [s], new distance [m])
     dynfilter: FilterMode = FilterMode.FULL
     seed: int | None = None  # the draw's seed (random trials)
+    dataset: str | None = None  # demonstration set of the primitives (None: the robot's); a path every worker reads
+    sources: str = "3+2"  # periodic sources of the primitives' mixture model, FIRST+EXTRA
 
     @property
     def id(self) -> str:
-        return f"{self.index:03d}_{self.method}_{self.slot}_{self.distance:.3f}m_{self.speed.value}"
+        return f"{self.index:03d}_{self.method}_{self.sources}_{self.slot}_{self.distance:.3f}m_{self.speed.value}"
 
     def trial(self) -> Trial:
         return Trial(self.id, METHODS[self.method](self))
@@ -55,8 +57,9 @@ class DrawerTrial:
 def _ours(t: DrawerTrial) -> tuple[str, ...]:
     """The method of the thesis: synthesis → WPG → dynamic filter → stack of tasks."""
     jump = ("--goal-jump", f"{t.jump[0]:g}:{t.jump[1]:g}") if t.jump else ()
+    dataset = ("--dataset", t.dataset) if t.dataset else ()
     return ("drawer", "--distance", f"{t.distance:g}", "--slot", t.slot, "--speed", t.speed.value,
-            "--dynfilter", t.dynfilter.value, *jump)
+            "--dynfilter", t.dynfilter.value, "--sources", t.sources, *jump, *dataset)
 
 
 def _ours_no_feedback(t: DrawerTrial) -> tuple[str, ...]:
@@ -123,7 +126,7 @@ def drawer_row(spec: DrawerTrial, report: dict | None, outcome: TrialOutcome) ->
     """The campaign's row of one trial (``report``: its drawer report, None if it wrote none)."""
     row = {"id": spec.id, "method": spec.method, "distance_m": spec.distance, "slot": spec.slot,
            "speed": spec.speed.value, "jump": list(spec.jump) if spec.jump else None, "seed": spec.seed,
-           "dynfilter": spec.dynfilter.value, "wall_s": round(outcome.wall_s, 2), "error": outcome.error}
+           "dataset": spec.dataset, "sources": spec.sources, "dynfilter": spec.dynfilter.value, "wall_s": round(outcome.wall_s, 2), "error": outcome.error}
     if report is None:
         return row | {"fell": None, "success": False}
     errors = report.get("step_length_errors_m") or []
@@ -143,19 +146,19 @@ def _stat(values: list[float], f) -> float | None:
 
 
 def summarize(rows: Sequence[dict]) -> list[dict]:
-    """Per method and speed class: trials, falls, successes, errors, median and max of the step
-    length and hand errors (absolute), the largest peak ratios."""
-    groups: dict[tuple[str, str], list[dict]] = {}
+    """Per method, source count and speed class: trials, falls, successes, errors, median and max
+    of the step length and hand errors (absolute), the largest peak ratios."""
+    groups: dict[tuple[str, str, str], list[dict]] = {}
     for r in rows:
-        groups.setdefault((r["method"], r["speed"]), []).append(r)
+        groups.setdefault((r["method"], r.get("sources", "3+2"), r["speed"]), []).append(r)
     order = {s.value: k for k, s in enumerate(SpeedClass)}
     out = []
-    for (method, speed), rs in sorted(groups.items(), key=lambda kv: (kv[0][0], order[kv[0][1]])):
+    for (method, sources, speed), rs in sorted(groups.items(), key=lambda kv: (kv[0][:2], order[kv[0][2]])):
         steps = [abs(e) for r in rs for e in r.get("step_length_errors_m") or []]
         hands = [r["hand_error_m"] for r in rs if r.get("hand_error_m") is not None]
         ankles = [r["peak_ankle_pitch_torque_ratio"] for r in rs if r.get("peak_ankle_pitch_torque_ratio") is not None]
         grfs = [r["peak_grf_ratio"] for r in rs if r.get("peak_grf_ratio") is not None]
-        out.append({"method": method, "speed": speed, "trials": len(rs), "falls": sum(bool(r["fell"]) for r in rs),
+        out.append({"method": method, "sources": sources, "speed": speed, "trials": len(rs), "falls": sum(bool(r["fell"]) for r in rs),
                     "successes": sum(bool(r["success"]) for r in rs),
                     "errors": sum(r["error"] is not None for r in rs),
                     "step_length_error_median_m": _stat(steps, np.median), "step_length_error_max_m": _stat(steps, max),

@@ -2,7 +2,9 @@
 
 Per tick: the measured base pose, each ankle pitch servo's demanded torque, the vertical ground
 reaction forces and the drawer scene's ground truth (``JointState.scene``: opening, pull force,
-grasp, both hands' distances to their targets). The report (:meth:`DrawerRecorder.report`):
+grasp, both hands' distances to their targets); and what a demonstration is made of
+(``eval/feasible_demonstrations.py``): the measured joint angles, the base's full pose and its twist
+in the heading frame. The report (:meth:`DrawerRecorder.report`):
 
 - ``realized_step_lengths_m``: the measured pelvis advance along the start heading over each
   synthesized action, between the ticks at which the synthesis switched action (the synthesizer's
@@ -44,6 +46,7 @@ class DrawerRecorder:
         self._grippers = [robot.config.joint_index("grippers", s) for s in SIDES]
         self.ankle_limit = robot.effort[self._ankles]
         self.rows: list[np.ndarray] = []
+        self.body_rows: list[np.ndarray] = []
         self.synth_hand_error = np.nan
 
     def on_command(self, tick) -> None:
@@ -56,6 +59,7 @@ class DrawerRecorder:
         grf = [float((s.foot_wrench or {}).get(side, np.zeros(6))[2]) for side in SIDES]
         scene = (s.scene if s.scene is not None else np.full(len(DRAWER_READINGS), np.nan))[:len(DRAWER_READINGS)]
         self.rows.append(np.concatenate([[s.t], base, tau[self._ankles], grf, s.q[self._grippers], scene]))
+        self.body_rows.append(np.concatenate([heading_twist(s), s.base_pos, s.base_quat_xyzw, s.q]))
         c = self.commander
         if c.output is not None and c.output.action is Action.STAND:
             target = c.targets.object(tick.t, c.hands.opening)
@@ -67,6 +71,12 @@ class DrawerRecorder:
                "gripper_q": a[:, 8:10]}
         out.update({name: a[:, 10 + i] for i, name in enumerate(DRAWER_READINGS)})
         return out
+
+    def body_arrays(self) -> dict[str, np.ndarray]:
+        """Per tick: ``base_twist`` (vx, vy [m/s] in the base's heading frame, ωz [rad/s] about the
+        world's z), ``base_pos`` [m] and ``base_quat_xyzw`` (world), ``joint_q`` [rad] (joint order)."""
+        a = np.array(self.body_rows, dtype=np.float32).reshape(-1, 10 + self.robot.nj)
+        return {"base_twist": a[:, :3], "base_pos": a[:, 3:6], "base_quat_xyzw": a[:, 6:10], "joint_q": a[:, 10:]}
 
     def report(self, fell: bool, geometry, slot: str, comfort: float) -> dict:
         c = self.commander
@@ -89,10 +99,23 @@ class DrawerRecorder:
             data = dict(f)
         a = self.arrays()
         data.update({f"drawer_{k}" if k in ("t", "base", "grf") else k: v for k, v in a.items()})
+        data.update(self.body_arrays())
         data["ankle_pitch_limit_nm"] = self.ankle_limit
         data["action_starts"] = np.array([[t, action] for t, action in self.commander.boundaries]).reshape(-1, 2)
         np.savez_compressed(path, **data)
         return path
+
+
+def heading_twist(s) -> np.ndarray:
+    """The base's measured twist ``(vx, vy, ωz)``: linear velocity in its heading frame (x forward
+    along its yaw, z up), yaw rate about the world's z, from a ``JointState``."""
+    yaw = base_pose_xy_yaw(s.base_pos, s.base_quat_xyzw)[2]
+    c, si = np.cos(yaw), np.sin(yaw)
+    v = s.base_linvel
+    x, y, z, w = s.base_quat_xyzw
+    world_angvel_z = 2 * (x * z - w * y) * s.base_angvel[0] + 2 * (y * z + w * x) * s.base_angvel[1] + \
+        (1 - 2 * (x * x + y * y)) * s.base_angvel[2]  # third row of the base's rotation matrix
+    return np.array([c * v[0] + si * v[1], -si * v[0] + c * v[1], world_angvel_z])
 
 
 def drawer_outcome(a: dict[str, np.ndarray], boundaries: list[float], planned: list[float],

@@ -64,7 +64,8 @@ def run_drawer(robot: RobotModel, hw: SafetyLayer, primitives: WalkReachPrimitiv
     report = run.metrics.report() | {"robot": robot.name, "distance_m": task.distance, "slot": task.slot,
                                      "goal_jumps": [{"time_s": j.time, "distance_m": j.distance} for j in task.jumps],
                                      "dynfilter": task.dynfilter.value, "speed": task.speed.value,
-                                     "position_feedback": task.position_feedback} | drawer.report(
+                                     "position_feedback": task.position_feedback,
+                                     "sources": "{}+{}".format(*primitives.sources)} | drawer.report(
         run.metrics.fell, geometry, task.slot, primitives.comfort_distance) | dict(
         zmp_in_support_ratio=walk.zmp_in_support_ratio, footsteps=walk.footsteps, **walk.log.metrics(),
         dynfilter_fallbacks=controller.filter_fallbacks, push_recoveries=controller.push_recoveries,

@@ -90,6 +90,11 @@ class WalkReachPrimitives:
                    tuple(quality_table(X, model)), models)
 
     @property
+    def sources(self) -> tuple[int, int]:
+        """Periodic sources: for action 1, and the extra ones for actions 2 and 3."""
+        return self.n_first, self.rotations.shape[1] - self.n_first
+
+    @property
     def slots(self) -> tuple[str, ...]:
         return tuple(key for action, key in self._models if action == 3)
 
