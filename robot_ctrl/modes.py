@@ -72,4 +72,12 @@ class SpeedClass(_Mode):
         return {"slow": 0.8, "middle": 0.92, "nominal": 1.0, "fast": 1.2}[self.value]
 
 
-_OPTION = {FilterMode: "dynfilter", ArmMotion: "arms", BaseState: "base-state", HardwareKind: "hw", SpeedClass: "speed"}  # the option each is chosen by
+class DrawerMethod(_Mode):
+    """How the drawer task is done: our method (synthesis → WPG → dynamic filter → stack of tasks),
+    or the naive baseline of thesis 3.8.4 (every joint learned and played on the servos)."""
+
+    OURS = "ours"
+    NAIVE = "naive"
+
+
+_OPTION = {DrawerMethod: "method", FilterMode: "dynfilter", ArmMotion: "arms", BaseState: "base-state", HardwareKind: "hw", SpeedClass: "speed"}  # the option each is chosen by

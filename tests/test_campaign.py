@@ -57,21 +57,24 @@ def test_trials_from_a_file_and_drawn_at_random(tmp_path):
         (1.6, "back_left", SpeedClass.SLOW, None), (1.7, "front_right", SpeedClass.FAST, None),
         (1.6, "front_left", SpeedClass.NOMINAL, (2.0, 1.9))]
     assert trials[1].trial().argv == ("drawer", "--distance", "1.7", "--slot", "front_right", "--speed", "fast",
-                                      "--dynfilter", "full")
+                                      "--dynfilter", "full", "--sources", "3+2")
     assert dataclasses.replace(trials[1], method="ours-no-feedback").trial().argv[-1] == "--no-position-feedback"
+    naive = dataclasses.replace(trials[1], method="naive", sources="5+4", dataset="/data/feasible.npz").trial()
+    assert naive.argv[-6:] == ("--sources", "5+4", "--dataset", "/data/feasible.npz", "--method", "naive")
+    assert naive.id == "001_naive_5+4_front_right_1.700m_fast"
     drawn = draw_trials(30, 1, (SpeedClass.SLOW, SpeedClass.MIDDLE, SpeedClass.FAST), ("ours",), FilterMode.FULL)
     classes = (SpeedClass.SLOW, SpeedClass.MIDDLE, SpeedClass.FAST)
     assert drawn == draw_trials(30, 1, classes, ("ours",), FilterMode.FULL)
     assert [sum(t.speed is s for t in drawn) for s in (SpeedClass.SLOW, SpeedClass.MIDDLE, SpeedClass.FAST)] == [10] * 3
     assert all(DRAWN_DISTANCES[0] <= t.distance <= DRAWN_DISTANCES[1] for t in drawn)
     assert len({t.id for t in drawn}) == 30 and len({t.distance for t in drawn}) > 25
-    summary = summarize([{"method": "ours", "speed": "fast", "fell": False, "success": True, "error": None,
+    summary = summarize([{"method": "ours", "sources": "4+3", "speed": "fast", "fell": False, "success": True, "error": None,
                           "step_length_errors_m": [0.004, -0.006], "hand_error_m": 0.001,
                           "peak_ankle_pitch_torque_ratio": 0.4, "peak_grf_ratio": 0.8},
-                         {"method": "ours", "speed": "fast", "fell": True, "success": False, "error": None,
+                         {"method": "ours", "sources": "4+3", "speed": "fast", "fell": True, "success": False, "error": None,
                           "step_length_errors_m": [0.002], "hand_error_m": 0.003,
                           "peak_ankle_pitch_torque_ratio": 0.9, "peak_grf_ratio": 1.2}])
-    assert summary == [{"method": "ours", "speed": "fast", "trials": 2, "falls": 1, "successes": 1, "errors": 0,
+    assert summary == [{"method": "ours", "sources": "4+3", "speed": "fast", "trials": 2, "falls": 1, "successes": 1, "errors": 0,
                         "step_length_error_median_m": 0.004, "step_length_error_max_m": 0.006,
                         "hand_error_median_m": 0.002, "hand_error_max_m": 0.003,
                         "peak_ankle_pitch_torque_ratio": 0.9, "peak_grf_ratio": 1.2}]
@@ -80,11 +83,14 @@ def test_trials_from_a_file_and_drawn_at_random(tmp_path):
 @pytest.mark.parametrize("args,message", [
     (["--n", "0"], "--n 0 is outside the allowed range"),
     (["--n", "2", "--speeds", "slow,warp"], "--speeds 'warp' is not one of slow, middle, nominal, fast"),
-    (["--n", "2", "--method", "magic"], "--method magic is not one of ours"),
+    (["--n", "2", "--method", "magic"], "--method magic is not one of ours, ours-no-feedback, naive"),
+    (["--n", "2", "--sources", "3+2,9+1"], "--sources 9+1: FIRST must be in [1, 8]"),
+    (["--n", "2", "--method", "naive", "--dataset", "models/talos_walk_reach_demos.npz"],
+     "demonstration set has no whole-body channels"),
     (["--n", "2", "--address", "1.2.3.4:6379"], "--address names a Ray cluster"),
     (["--trials", "/nonexistent/trials.txt"], "No such file"),
     (["--trials", "TRIALS_TOO_NEAR"],
-     "trial 000_ours_back_left_0.500m_slow: distance = 0.5 m is outside the allowed range"),
+     "trial 000_ours_3+2_back_left_0.500m_slow: distance = 0.5 m is outside the allowed range"),
 ])
 def test_bad_campaign_input_is_refused_with_one_line(args, message, capsys, tmp_path):
     too_near = tmp_path / "too_near.txt"

@@ -156,3 +156,18 @@ def test_without_position_feedback_the_synthesis_alone_steers_the_walk(tmp_path)
     synthesis = max(abs(e) for e in report["synthesis_step_length_errors_m"])
     realized = max(abs(e) for e in report["step_length_errors_m"])
     assert synthesis < 0.001 < realized and abs(report["final_pelvis_to_drawer_m"] - report["comfort_distance_m"]) > 0.01
+
+
+def test_the_naive_baseline_plays_learned_joint_angles(tmp_path):
+    """Thesis 3.8.4's naive method: every joint learned from the feasible runs and played on the
+    servos after the walk-in. With enough sources, at a training sequence, the playback walks the
+    robot to the drawer (the playback itself is sound); with no hand task and no grasp logic the
+    hands miss (the thesis judged the naive method by its falls, torques and forces only)."""
+    status = main(["drawer", "--method", "naive", "--sources", "8+8", "--distance", "1.40", "--slot", "back_right",
+                   "--speed", "middle", "--quiet", "--out", str(tmp_path)])
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert status == 0 and report["method"] == "naive" and report["sources"] == "8+8" and not report["fell"]
+    assert report["actions"] == [1, 2, 3]
+    assert max(abs(e) for e in report["step_length_errors_m"][:2]) < 0.03
+    assert abs(report["final_pelvis_to_drawer_m"] - report["comfort_distance_m"]) < 0.03
+    assert report["drawer_opening_m"] < 0.01 and report["hand_to_object_m"] > 0.1 and not report["success"]

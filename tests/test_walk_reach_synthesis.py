@@ -260,3 +260,21 @@ def test_a_run_without_a_finished_sequence_is_not_a_demonstration():
     with pytest.raises(ValueError, match="do not end with a normal cycle, a short cycle and standing"):
         demonstration_from_run(series | {"drawer_t": np.zeros(1), "drawer_grf": np.zeros((1, 2))}, "front_left",
                                talos_upper, 1000.0)
+
+
+def test_source_counts_compare_and_the_step_before_shapes_the_final_posture(capsys):
+    """synth-quality compares source counts (thesis Fig. 3.14/3.41): more sources, a better gait
+    cycle; synth-transition (Fig. 3.38): two short cycles of different lengths before standing give
+    different postures at the switch."""
+    from robot_ctrl.cli import main
+
+    assert main(["synth-quality", "--sources", "3+2,5+4"]) == 0
+    rows = [line.split() for line in capsys.readouterr().out.splitlines() if line.split()[:1] in (["3+2"], ["5+4"])]
+    q = {(r[0], int(r[1])): float(r[3]) for r in rows}
+    assert len(rows) == 6 and q[("5+4", 1)] > q[("3+2", 1)] > 0.99
+    assert main(["synth-transition", "--distances", "1.10,1.30"]) == 0
+    out = capsys.readouterr().out
+    assert "short cycles 0.174 and 0.251 m before standing" in out
+    hand_mm = float(out.split("the left hand by ")[1].split(" mm")[0])
+    assert 5.0 < hand_mm < 50.0  # the postures differ, by a reach's fraction
+    assert main(["synth-quality", "--sources", "3+2,0+9"]) == 2

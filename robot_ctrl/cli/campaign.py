@@ -42,9 +42,13 @@ def _campaign(args: argparse.Namespace) -> int:
               enumerate((t, s) for t in trials for s in sources)]
     if args.dataset is not None:
         trials = [replace(t, dataset=str(args.dataset.resolve())) for t in trials]
-    tasks = {f"campaign: trial {t.id}": DrawerTask(t.distance, t.slot, (GoalJump(*t.jump),) if t.jump else (),
-                                                   t.dynfilter, speed=t.speed) for t in trials}
-    check_drawer_tasks(tasks, load_robot("talos"), dataset=args.dataset)
+    robot = load_robot("talos")
+    for naive in (False, True):
+        tasks = {f"campaign: trial {t.id}": DrawerTask(t.distance, t.slot, (GoalJump(*t.jump),) if t.jump else (),
+                                                       t.dynfilter, speed=t.speed)
+                 for t in trials if (t.method == "naive") == naive}
+        if tasks:
+            check_drawer_tasks(tasks, robot, dataset=args.dataset, whole_body=naive)
     backend = backend_of(args, "campaign")
     args.out.mkdir(parents=True, exist_ok=True)
     result = campaign.run_drawer_campaign(trials, args.out, backend, timeout=args.timeout, progress=not args.quiet,
@@ -79,7 +83,9 @@ def add_parsers(sub) -> None:
     p.add_argument("--seed", type=int, default=0, help="seed of the random draw (with --n)")
     p.add_argument("--speeds", default="slow,middle,fast",
                    help="speed classes of the drawn trials, in turn (slow 0.8, middle 0.92, nominal 1.0, fast 1.2)")
-    p.add_argument("--method", default="ours", help="comma-separated methods (ours)")
+    p.add_argument("--method", default="ours",
+                   help="comma-separated methods: ours, ours-no-feedback (the commander's position loops off), naive "
+                        "(every joint learned and played on the servos, thesis 3.8.4)")
     p.add_argument("--dynfilter", choices=[m.value for m in FilterMode], default=FilterMode.FULL.value,
                    help="dynamic filter of every trial")
     dataset_arg(p)

@@ -22,7 +22,7 @@ from robot_ctrl.cli.options import (
     time_distance,
 )
 from robot_ctrl.cli.simulation import base_state_of, finish, on_the_robot, parse_disturbances, simulation
-from robot_ctrl.modes import ArmMotion, FilterMode, SpeedClass
+from robot_ctrl.modes import ArmMotion, DrawerMethod, FilterMode, SpeedClass
 from robot_ctrl.robot.config import ConfigError
 
 
@@ -74,14 +74,19 @@ def _drawer(args: argparse.Namespace) -> int:
 
     jumps = tuple(time_distance(j, "--goal-jump") for j in args.goal_jump)
     task = DrawerTask(args.distance, args.slot, jumps, FilterMode(args.dynfilter), base_state=base_state_of(args),
-                      speed=SpeedClass(args.speed), position_feedback=not args.no_position_feedback)
+                      speed=SpeedClass(args.speed), position_feedback=not args.no_position_feedback,
+                      method=DrawerMethod(args.method))
     parse_disturbances(args)
     sources = parse_sources(args.sources, "drawer: --sources")
     if len(sources) != 1:
         raise ConfigError(f"drawer: --sources {args.sources!r}: one FIRST+EXTRA (a campaign compares several)")
     robot = load_robot(args.robot)
-    check_drawer_tasks({"drawer": task}, robot, DRAWER_OPTIONS, args.dataset)
-    primitives = load_primitives(robot, args.dataset, sources[0])
+    naive = task.method is DrawerMethod.NAIVE
+    check_drawer_tasks({"drawer": task}, robot, DRAWER_OPTIONS, args.dataset, whole_body=naive)
+    try:
+        primitives = load_primitives(robot, args.dataset, sources[0], whole_body=naive)
+    except ValueError as exc:
+        raise ConfigError(f"drawer: --dataset: {exc}") from exc
     placement = DrawerPlacement(task.distance, task.slot, tuple((j.time, j.distance) for j in jumps))
     robot, disturbances, hardware = simulation(args, robot, prop=placement)
     with hardware as hw, on_the_robot(args, robot, hw, task.control_dt) as (recorders, pacer):
@@ -94,7 +99,8 @@ def _drawer(args: argparse.Namespace) -> int:
     return finish(args, report)
 
 
-def check_drawer_tasks(tasks: dict, robot, options: dict[str, str] | None = None, dataset: Path | None = None) -> None:
+def check_drawer_tasks(tasks: dict, robot, options: dict[str, str] | None = None, dataset: Path | None = None,
+                       whole_body: bool = False) -> None:
     """Refuse, with one line, a drawer task the learned primitives cannot do (``DrawerTask.check``),
     before anything is learned or started. ``tasks``: what to call each in the message → the task;
     ``options``: the command-line options that set the task's settings, named in the message;
@@ -103,7 +109,9 @@ def check_drawer_tasks(tasks: dict, robot, options: dict[str, str] | None = None
 
     label = "drawer"
     try:
-        demos = load_demonstrations(robot, dataset)
+        demos = load_demonstrations(robot, dataset, whole_body)
+        if whole_body:
+            demos.whole_body()  # refuses a set without the legs, before anything runs
         shortest = min(t.lengths[1] for t in demos.trials)
         for label, task in tasks.items():
             task.check(demos.comfort_distance, shortest)
@@ -187,6 +195,9 @@ def _add_drawer(sub, sim) -> None:
     p.add_argument("--no-position-feedback", action="store_true",
                    help="the synthesis alone steers the walk: no feedback of the pelvis's lag, no stop at the final "
                         "footsteps, no waiting for the pelvis, no standing lean (docs/drawer.md)")
+    p.add_argument("--method", choices=[m.value for m in DrawerMethod], default=DrawerMethod.OURS.value,
+                   help="ours (synthesis, WPG, dynamic filter, stack of tasks) or naive: every joint learned from the "
+                        "feasible demonstrations and played on the servos (thesis 3.8.4, docs/evaluation.md)")
     dataset_arg(p)
     sources_arg(p)
     base_state_arg(p)

@@ -114,6 +114,16 @@ class WalkReachCommander:
         return self.body.hands(self.output.upper_body_q, self.controller.estimate.configuration)[side]
 
     @property
+    def opening(self) -> float:
+        """How far the hand has pulled the drawer, measured [m]."""
+        return self.hands.opening
+
+    @property
+    def done(self) -> bool:
+        """The task is over: the sequence ended, the drawer is pulled, the robot stands."""
+        return self.finished and self.controller.standing
+
+    @property
     def finished(self) -> bool:
         """The sequence has ended, and the drawer is pulled (or the hand never got hold of it)."""
         if self.synth is None or not self.synth.finished:

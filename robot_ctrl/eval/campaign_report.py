@@ -1,7 +1,8 @@
 """``DIR/campaign.html``: a drawer campaign on one self-contained page (figures as embedded PNG):
-the summary per method and speed class beside the thesis's numbers, histograms of the step-length
-and hand errors (thesis Fig. 3.41, right), and the ankle pitch torque and vertical ground reaction
-force against time for the trials with the largest peaks, with their limits (Fig. 3.47)."""
+falls per method, source count and speed class beside the thesis's (Table 3.1), the summary per
+method and speed class, histograms of the step-length and hand errors (thesis Fig. 3.41, right),
+each trial's peak ankle pitch torque and vertical ground reaction force against the limits per
+method (Fig. 3.47), and both against time for the trials with the largest peaks."""
 
 from __future__ import annotations
 
@@ -25,6 +26,9 @@ SUMMARY_COLUMNS = (("method", "method"), ("sources", "sources"), ("speed", "spee
                    ("peak_ankle_pitch_torque_ratio", "peak ankle pitch torque / limit"),
                    ("peak_grf_ratio", "peak vertical GRF / limit"))
 PEAK_TRIALS = 3  # trials shown against time
+SPEEDS = ("slow", "middle", "fast")
+#: Table 3.1: falls of 10 new trials per speed class (slow, middle, fast), naive ML per source count.
+THESIS_FALLS = {"naive 3+2": (0, 10, 7), "naive 4+3": (1, 0, 2), "naive 5+4": (0, 5, 10), "ours 4+3": (0, 0, 0)}
 
 
 def _cell(key: str, value) -> str:
@@ -44,6 +48,39 @@ def _label(axes, xlabels, ylabels) -> None:
 
 def _group(row: dict) -> str:
     return f"{row['method']} {row.get('sources', '3+2')}"
+
+
+def _falls_table(summary: list[dict]) -> str:
+    """Table 3.1's layout: a row per method and source count, falls of trials per speed class, and
+    the thesis's row where it has one."""
+    cells: dict[str, dict[str, str]] = {}
+    for s in summary:
+        cells.setdefault(f"{s['method']} {s.get('sources', '3+2')}", {})[s["speed"]] = f"{s['falls']} of {s['trials']}"
+    speeds = [v for v in SPEEDS if any(v in row for row in cells.values())] + \
+        sorted({v for row in cells.values() for v in row} - set(SPEEDS))
+    head = "".join(f"<th>{v}</th>" for v in speeds) + "".join(f"<th>thesis {v}</th>" for v in SPEEDS)
+    rows = "".join(
+        f"<tr><td>{html.escape(label)}</td>" + "".join(f"<td>{row.get(v, '–')}</td>" for v in speeds)
+        + "".join(f"<td>{n} of 10</td>" if label in THESIS_FALLS else "<td>–</td>"
+                  for n in THESIS_FALLS.get(label, (None,) * 3)) + "</tr>" for label, row in sorted(cells.items()))
+    return f"<table><tr><th>falls</th>{head}</tr>{rows}</table>"
+
+
+def _peaks_per_method(rows: list[dict]):
+    """Each trial's peak ankle pitch torque and peak vertical GRF over their limits, per method and
+    source count (thesis Fig. 3.47: a ratio above 1 is beyond what the robot can do)."""
+    import matplotlib.pyplot as plt
+
+    labels = sorted({_group(r) for r in rows})
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.4))
+    for ax, key in zip(axes, ("peak_ankle_pitch_torque_ratio", "peak_grf_ratio")):
+        for k, label in enumerate(labels):
+            values = [r[key] for r in rows if _group(r) == label and r.get(key) is not None]
+            ax.plot(np.full(len(values), k) + np.linspace(-0.2, 0.2, len(values)), values, "o", ms=3, alpha=0.7)
+        ax.axhline(1.0, color="r", ls="--", lw=1, label="limit")
+        ax.set_xticks(range(len(labels)), labels, rotation=20, fontsize=8)
+    _label(axes, ("", ""), ("peak |ankle pitch torque| / limit", "peak vertical GRF / limit"))
+    return fig
 
 
 def _histograms(rows: list[dict]):
@@ -96,7 +133,9 @@ def render_campaign(campaign: dict, out_dir: Path) -> Path:
     failures = "".join(f"<li>{html.escape(r['id'])}: fell {r['fell']}, success {r['success']}"
                        f"{', error: ' + html.escape(r['error']) if r['error'] else ''}</li>" for r in failed)
     failures = failures or "<li>none</li>"
-    figures = [("Step-length and hand errors (thesis Fig. 3.41, right)", figure_png(_histograms(rows))),
+    figures = [("Peak ankle pitch torque and vertical GRF of every trial over their limits (thesis Fig. 3.47)",
+                figure_png(_peaks_per_method(rows))),
+               ("Step-length and hand errors (thesis Fig. 3.41, right)", figure_png(_histograms(rows))),
                (f"Ankle pitch torque and vertical GRF of the trials with the largest peaks (at most {PEAK_TRIALS}), "
                 "limits dashed (thesis Fig. 3.47)", figure_png(_peaks_over_time(rows, out_dir)))]
     images = "".join(f'<h2>{html.escape(t)}</h2><img alt="{html.escape(t)}" src="data:image/png;base64,{png}">'
@@ -106,9 +145,12 @@ def render_campaign(campaign: dict, out_dir: Path) -> Path:
 <style>body{{font-family:sans-serif;max-width:1100px;margin:2em auto;}} table{{border-collapse:collapse;}}
 th,td{{border:1px solid #ccc;padding:3px 8px;text-align:right;font-size:90%;}} img{{max-width:100%;}}</style>
 </head><body><h1>Drawer campaign: {len(rows)} trials</h1>
+<h2>Falls per method, source count and speed class (thesis Table 3.1)</h2>{_falls_table(campaign["summary"])}
+<h2>Summary</h2>
 <table><tr>{head}</tr>{body}</table>
 <h2>The thesis's method, for comparison</h2><ul>{thesis}</ul>
-<h2>Trials that fell, failed a criterion or ended in an error</h2><ul>{failures}</ul>
+<h2>Trials that fell, failed a criterion or ended in an error: {len(failed)}</h2>
+<details><summary>the list</summary><ul>{failures}</ul></details>
 {images}
 <p>Each trial's report: <code>trials/ID/report.json</code> (<code>robot-ctrl report trials/ID</code> renders it).</p>
 </body></html>

@@ -67,8 +67,14 @@ def _ours_no_feedback(t: DrawerTrial) -> tuple[str, ...]:
     return (*_ours(t), "--no-position-feedback")
 
 
+def _naive(t: DrawerTrial) -> tuple[str, ...]:
+    """The naive baseline (thesis 3.8.4): every joint learned from the feasible runs, played on the servos."""
+    return (*_ours(t), "--method", "naive")
+
+
 #: Method name → the command line of one trial.
-METHODS: dict[str, Callable[[DrawerTrial], tuple[str, ...]]] = {"ours": _ours, "ours-no-feedback": _ours_no_feedback}
+METHODS: dict[str, Callable[[DrawerTrial], tuple[str, ...]]] = {"ours": _ours, "ours-no-feedback": _ours_no_feedback,
+                                                                 "naive": _naive}
 
 
 def parse_methods(text: str) -> tuple[str, ...]:
@@ -138,6 +144,7 @@ def drawer_row(spec: DrawerTrial, report: dict | None, outcome: TrialOutcome) ->
         "hand_error_m": report.get("hand_to_object_m"), "drawer_opening_m": report.get("drawer_opening_m"),
         "peak_ankle_pitch_torque_ratio": max(ankle.values()) if ankle else None,
         "peak_grf_ratio": round(max(grf.values()) / report["grf_limit_n"], 4) if grf else None,
+        "zmp_lateral_error_rms_m": (report.get("zmp_error_rms_m") or {}).get("y"),
         "safety_interventions": report["safety"]["interventions"], "rtf": report["rtf"]}
 
 

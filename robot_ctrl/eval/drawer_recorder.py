@@ -62,7 +62,7 @@ class DrawerRecorder:
         self.body_rows.append(np.concatenate([heading_twist(s), s.base_pos, s.base_quat_xyzw, s.q]))
         c = self.commander
         if c.output is not None and c.output.action is Action.STAND:
-            target = c.targets.object(tick.t, c.hands.opening)
+            target = c.targets.object(tick.t, c.opening)
             self.synth_hand_error = float(np.linalg.norm(c.synthesized_hand_at_measured("right") - target))
 
     def arrays(self) -> dict[str, np.ndarray]:

@@ -36,6 +36,7 @@ from typing import Callable
 
 import numpy as np
 
+from robot_ctrl import ROOT
 from robot_ctrl.eval.campaign_backends import Backend
 from robot_ctrl.eval.campaign_runner import run_campaign, trial_dir
 from robot_ctrl.eval.drawer_campaign import TRIAL_TIMEOUT, DrawerTrial, drawer_row
@@ -135,6 +136,14 @@ def demonstration_from_run(series: dict, slot: str, upper: np.ndarray, weight: f
                          samples[:, n_signals:])
 
 
+def _shown(path: Path) -> str:
+    """``path`` relative to the project when inside it (the command works from any checkout)."""
+    try:
+        return str(Path(path).resolve().relative_to(ROOT))
+    except ValueError:
+        return str(path)
+
+
 def record_feasible_set(robot: RobotModel, source: Path, runs_dir: Path, backend: Backend, out: Path, *,
                         progress: bool = True, log: Callable[[str], None] = print) -> DemonstrationSet | None:
     """Run the feasible trials (primitives from the kinematic set ``source``) into ``runs_dir``
@@ -164,7 +173,7 @@ def record_feasible_set(robot: RobotModel, source: Path, runs_dir: Path, backend
                    "tasks), realized base twist and joint angles, actions cut at measured touch-downs",
         "from_dataset": f"{Path(source).name} sha256 {hashlib.sha256(Path(source).read_bytes()).hexdigest()[:16]}",
         "runs": [{"id": s.id, "distance_m": s.distance, "slot": s.slot, "speed": s.speed.value} for s in trials],
-        "regenerate": f"robot-ctrl synth-demos --from-physics --robot {robot.name} --out {out}"}
+        "regenerate": f"robot-ctrl synth-demos --from-physics --robot {robot.name} --out {_shown(out)}"}
     body_channels = BODY_BASE_CHANNELS + tuple(robot.joint_names)
     result = DemonstrationSet(robot.name, PELVIS_CHANNELS + upper_body_joints(robot), SAMPLE_DT, comfort,
                               tuple(demos), provenance, body_channels)

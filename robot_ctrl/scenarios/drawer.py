@@ -11,6 +11,8 @@ from pathlib import Path
 from typing import Callable, Sequence
 
 from robot_ctrl.control.drawer_targets import DrawerTargets
+from robot_ctrl.control.joint_playback import JointPlayback
+from robot_ctrl.control.naive_commander import NaiveCommander
 from robot_ctrl.control.pacer import Pacer
 from robot_ctrl.control.walk_reach_commander import WalkReachCommander
 from robot_ctrl.control.walking_controller import WalkingController, WalkingOptions
@@ -24,6 +26,7 @@ from robot_ctrl.geometry import GRAVITY, base_pose_xy_yaw
 from robot_ctrl.geometry.drawer import DrawerGeometry
 from robot_ctrl.hw.disturbances import Disturbances
 from robot_ctrl.hw.safety import SafetyLayer
+from robot_ctrl.modes import DrawerMethod
 from robot_ctrl.robot.model import RobotModel
 from robot_ctrl.scenarios.drawer_task import DrawerTask
 from robot_ctrl.scenarios.robot_run import start_run
@@ -43,19 +46,27 @@ def run_drawer(robot: RobotModel, hw: SafetyLayer, primitives: WalkReachPrimitiv
     dt = task.control_dt
     options = WalkingOptions(control_dt=dt, dynfilter=task.dynfilter, dynfilter_worker=True,
                              trunk_weight=TRUNK_POSTURE_FACTOR, balance_with_arms=False)
-    controller, run = start_run(robot, hw, task.base_state, lambda seen: WalkingController(robot, seen, options),
-                                pacer, recorders, log)
+    naive = task.method is DrawerMethod.NAIVE
+
+    def build(seen):
+        walking = WalkingController(robot, seen, options)
+        return JointPlayback(walking) if naive else walking
+
+    stepped, run = start_run(robot, hw, task.base_state, build, pacer, recorders, log)
+    controller = stepped.walking if naive else stepped
     start = base_pose_xy_yaw(run.state.base_pos, run.state.base_quat_xyzw)
     targets = DrawerTargets(start, float(run.state.base_pos[2]), task.distance, task.slot, task.jumps, geometry)
-    commander = WalkReachCommander(controller, primitives, targets, log, speed=task.speed.scale,
-                                   position_feedback=task.position_feedback)
+    if naive:
+        commander = NaiveCommander(stepped, primitives, targets, log, speed=task.speed.scale)
+    else:
+        commander = WalkReachCommander(controller, primitives, targets, log, speed=task.speed.scale,
+                                       position_feedback=task.position_feedback)
     foot = robot.config.foot
     walk = WalkRecorder(controller, WalkLog(robot.mass * GRAVITY, start, (foot.length, foot.width)), start,
                         lambda line: None)
     drawer = DrawerRecorder(commander, robot)
     capture = PushCapture(controller, disturbances.pushes, float(start[2]))
-    done = HeldFor(lambda: commander.finished and controller.standing,
-                   STAND_AFTER, "the task ended")
+    done = HeldFor(lambda: commander.done, STAND_AFTER, "the task ended")
     limit = 8.0 * max([task.distance] + [j.distance for j in task.jumps]) + 15.0
     bar = ProgressBar(limit / 2, progress)
     result = run.loop(dt, bar, recorders=[walk, drawer, capture], commanders=[commander],
@@ -63,7 +74,7 @@ def run_drawer(robot: RobotModel, hw: SafetyLayer, primitives: WalkReachPrimitiv
     log(result.stop_reason)
     report = run.metrics.report() | {"robot": robot.name, "distance_m": task.distance, "slot": task.slot,
                                      "goal_jumps": [{"time_s": j.time, "distance_m": j.distance} for j in task.jumps],
-                                     "dynfilter": task.dynfilter.value, "speed": task.speed.value,
+                                     "dynfilter": task.dynfilter.value, "speed": task.speed.value, "method": task.method.value,
                                      "position_feedback": task.position_feedback,
                                      "sources": "{}+{}".format(*primitives.sources)} | drawer.report(
         run.metrics.fell, geometry, task.slot, primitives.comfort_distance) | dict(

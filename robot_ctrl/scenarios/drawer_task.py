@@ -8,7 +8,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from robot_ctrl.geometry.drawer import SLOTS
-from robot_ctrl.modes import BaseState, FilterMode, SpeedClass
+from robot_ctrl.modes import BaseState, DrawerMethod, FilterMode, SpeedClass
 from robot_ctrl.synthesis.synthesizer import GoalJump
 
 MAX_DISTANCE = 6.0  # [m] farthest cabinet: a room's length
@@ -25,6 +25,7 @@ class DrawerTask:
     base_state: BaseState = BaseState.SIMULATED  # where the controller's base pose and velocity come from
     speed: SpeedClass = SpeedClass.NOMINAL  # how fast the synthesized sequence is played
     position_feedback: bool = True  # the commander's loops that bring the pelvis where the synthesis planned it
+    method: DrawerMethod = DrawerMethod.OURS
 
     def check(self, comfort: float, shortest: float) -> None:
         """Raise ValueError naming the setting and its allowed range."""

@@ -117,6 +117,18 @@ class DemonstrationSet:
                             offsets=np.cumsum([0] + [len(t.signals) for t in self.trials]),
                             signals=np.concatenate([t.signals for t in self.trials]).astype(np.float32), **body)
 
+    def whole_body(self) -> "DemonstrationSet":
+        """The same trials with the whole body as channels: the pelvis twist, then ``body_channels``
+        (what the naive baseline learns, thesis 3.8.4). ValueError for a set without it."""
+        if not self.body_channels:
+            raise ValueError(f"the {self.provenance.get('source', '')} demonstration set has no whole-body channels; "
+                             "record one with: robot-ctrl synth-demos --from-physics")
+        trials = tuple(Demonstration(t.slot, t.lengths, t.durations, t.bounds,
+                                     np.concatenate([t.signals[:, :len(PELVIS_CHANNELS)], t.body], axis=1), t.body)
+                       for t in self.trials)
+        return DemonstrationSet(self.robot, PELVIS_CHANNELS + self.body_channels, self.dt, self.comfort_distance,
+                                trials, self.provenance, self.body_channels)
+
     @classmethod
     def load(cls, path: Path) -> "DemonstrationSet":
         with np.load(path) as f:
@@ -145,11 +157,11 @@ def feasible_dataset_path(robot: str) -> Path:
     return ROOT / "models" / f"{robot}_walk_reach_feasible.npz"
 
 
-def default_dataset_path(robot: str) -> Path:
-    """What the robot's primitives are learned from: its feasible set where one is shipped (thesis
-    3.8.3), else its kinematic set."""
-    feasible = feasible_dataset_path(robot)
-    return feasible if feasible.exists() else kinematic_dataset_path(robot)
+def default_dataset_path(robot: str, whole_body: bool = False) -> Path:
+    """What the robot's primitives are learned from by default: the kinematic set for our method
+    (primitives from the feasible set do not yet meet every drawer criterion: docs/synthesis.md),
+    the feasible set for the naive baseline's whole body (only it records the legs)."""
+    return feasible_dataset_path(robot) if whole_body else kinematic_dataset_path(robot)
 
 
 # Nominal action timing and the training grid, robot scale: human lengths x 0.45, durations x 1.5

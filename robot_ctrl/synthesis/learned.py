@@ -24,9 +24,9 @@ from robot_ctrl.synthesis.primitives import WalkReachPrimitives
 SYNTHESIS_SOURCES = Path(__file__).resolve().parent  # the learning code, part of the key
 
 
-def load_demonstrations(robot: RobotModel, dataset: Path | None = None) -> DemonstrationSet:
-    """The robot's demonstration set (default: the one shipped in ``models/``)."""
-    path = dataset or default_dataset_path(robot.name)
+def load_demonstrations(robot: RobotModel, dataset: Path | None = None, whole_body: bool = False) -> DemonstrationSet:
+    """The robot's demonstration set (default: the one shipped in ``models/`` for the method)."""
+    path = dataset or default_dataset_path(robot.name, whole_body)
     if not path.exists():
         raise FileNotFoundError(f"no demonstrations at {path}; generate them with: robot-ctrl synth-demos "
                                 f"--robot {robot.name} --out {path}")
@@ -39,20 +39,24 @@ def load_demonstrations(robot: RobotModel, dataset: Path | None = None) -> Demon
 DEFAULT_SOURCES = (3, 2)
 
 
-def load_primitives(robot: RobotModel, dataset: Path | None = None,
-                    sources: tuple[int, int] = DEFAULT_SOURCES) -> WalkReachPrimitives:
+def load_primitives(robot: RobotModel, dataset: Path | None = None, sources: tuple[int, int] = DEFAULT_SOURCES, *,
+                    whole_body: bool = False) -> WalkReachPrimitives:
     """The primitives learned from the robot's demonstration set with ``sources`` periodic sources:
     from the cache when the same demonstrations were learned by the same code before, else learned
-    (a few seconds) and cached."""
-    demos = load_demonstrations(robot, dataset)
-    path = dataset or default_dataset_path(robot.name)
+    (a few seconds) and cached. ``whole_body``: learn every joint and the base (the naive baseline)
+    instead of the pelvis twist and the upper body."""
+    demos = load_demonstrations(robot, dataset, whole_body)
+    if whole_body:
+        demos = demos.whole_body()
+    path = dataset or default_dataset_path(robot.name, whole_body)
     key = hashlib.sha256()
     key.update(Path(path).read_bytes())
     key.update(robot.name.encode() + robot.lower.tobytes() + robot.upper.tobytes() + np.__version__.encode())
-    key.update(repr(tuple(sources)).encode())
+    key.update(repr((tuple(sources), whole_body)).encode())
     for source in sorted(SYNTHESIS_SOURCES.glob("*.py")):
         key.update(source.read_bytes())
-    cached = cache_dir() / f"{robot.name}-primitives-{key.hexdigest()[:16]}.pickle"
+    kind = "whole-body-primitives" if whole_body else "primitives"
+    cached = cache_dir() / f"{robot.name}-{kind}-{key.hexdigest()[:16]}.pickle"
     if cached.is_file():
         with open(cached, "rb") as f:
             return pickle.load(f)
