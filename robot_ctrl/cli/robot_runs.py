@@ -71,6 +71,7 @@ def _drawer(args: argparse.Namespace) -> int:
     from robot_ctrl.scenarios.drawer import run_drawer
     from robot_ctrl.scenarios.drawer_task import DrawerTask
     from robot_ctrl.synthesis.learned import load_primitives
+    from robot_ctrl.synthesis.synthesizer import SynthesisError
 
     jumps = tuple(time_distance(j, "--goal-jump") for j in args.goal_jump)
     task = DrawerTask(args.distance, args.slot, jumps, FilterMode(args.dynfilter), base_state=base_state_of(args),
@@ -90,8 +91,12 @@ def _drawer(args: argparse.Namespace) -> int:
     placement = DrawerPlacement(task.distance, task.slot, tuple((j.time, j.distance) for j in jumps))
     robot, disturbances, hardware = simulation(args, robot, prop=placement)
     with hardware as hw, on_the_robot(args, robot, hw, task.control_dt) as (recorders, pacer):
-        report = run_drawer(robot, hw, primitives, task, out_dir=args.out, log=log_line, progress=not args.quiet,
-                            disturbances=disturbances, recorders=recorders, pacer=pacer)
+        try:
+            report = run_drawer(robot, hw, primitives, task, out_dir=args.out, log=log_line,
+                                progress=not args.quiet, disturbances=disturbances, recorders=recorders, pacer=pacer)
+        except SynthesisError as exc:
+            raise ConfigError(f"drawer: --distance {task.distance} with these primitives (--dataset, --sources): "
+                              f"{exc}") from exc
     if args.out is not None:
         from robot_ctrl.eval.html_report import render_report
 

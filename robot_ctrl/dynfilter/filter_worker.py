@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import multiprocessing as mp
 import os
+import signal
 from dataclasses import dataclass
 from typing import Callable, NoReturn
 
@@ -43,6 +44,10 @@ class FilterResult:
 def _serve(connection, robot: RobotModel, horizon: int, com_height: float, mode: str, passes: int) -> None:
     """Worker process: refine every request in order and send the result back, until ``None``."""
     die_with_parent()  # a controller killed outright sends no None, and the pipe may never report it gone
+    # The command line's handlers are inherited by the fork: Ctrl-C stops the controller, which closes
+    # us; a SIGTERM from its cleanup ends us quietly, without a second traceback.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
     # Idle priority: the result is due a sample later, while the loop's physics thread shares this
     # core and is waited for every tick. Linux's SCHED_IDLE yields the core the moment the physics
     # wakes; elsewhere, the lowest nice value.

@@ -45,8 +45,20 @@ class ActionParams:
 
 @dataclass(frozen=True)
 class _ActionModel:
+    """The regressions of one action. A query is held inside what was demonstrated (the input at
+    the nearest demonstrated length, the duration within the demonstrated ones): a local linear fit
+    extrapolates, and a few neighbouring trials of different speeds can tilt it far enough to
+    predict a negative duration just outside them."""
+
     duration: LocallyWeightedRegression  # length -> duration
     params: LocallyWeightedRegression  # (length, duration) -> [means, w0, weights]
+    lengths: tuple[float, float]  # demonstrated input range [m]
+    durations: tuple[float, float]  # demonstrated durations [s]
+
+    def predict(self, length: float) -> tuple[float, np.ndarray]:
+        x = float(np.clip(length, *self.lengths))
+        duration = float(np.clip(self.duration(x)[0], *self.durations))
+        return duration, self.params([x, duration])
 
 
 @dataclass(frozen=True)
@@ -104,9 +116,7 @@ class WalkReachPrimitives:
         if action == 3 and slot not in self.slots:
             raise ValueError(f"slot = {slot!r} is not one of the learned object slots {self.slots}")
         model = self._models[(action, slot if action == 3 else None)]
-        x = previous_length if action == 3 else length
-        duration = float(model.duration(x)[0])
-        p = model.params([x, duration])
+        duration, p = model.predict(previous_length if action == 3 else length)
         C, K = self.rotations.shape
         weights = p[2 * C :].reshape(C, K)
         if action == 1:
@@ -116,4 +126,5 @@ class WalkReachPrimitives:
 
 def _fit(length: np.ndarray, duration: np.ndarray, outputs: np.ndarray) -> _ActionModel:
     return _ActionModel(LocallyWeightedRegression.fit(length, duration),
-                        LocallyWeightedRegression.fit(np.stack([length, duration], axis=1), outputs))
+                        LocallyWeightedRegression.fit(np.stack([length, duration], axis=1), outputs),
+                        (float(length.min()), float(length.max())), (float(duration.min()), float(duration.max())))

@@ -37,6 +37,10 @@ TWO_PI = 2 * np.pi
 FOLLOWER_COUPLING = 10.0  # [1/s] star coupling of the source oscillators to the leader
 
 
+class SynthesisError(ValueError):
+    """The learned primitives cannot plan a goal (a property of the primitives and the goal, not a bug)."""
+
+
 @dataclass(frozen=True)
 class WalkReachGoal:
     """The drawer: ``distance`` [m] of its front panel from the pelvis's start position along the
@@ -292,6 +296,7 @@ def _rollout_vx(primitives, plan, c: _Cursor, dt: float, vx: int):
         coef[b.post] += b.alpha * dt
         progress += ((1 - b.alpha) * plan[b.prev].means[vx] + b.alpha * plan[b.post].means[vx] + terms[0]) * dt
     else:
-        raise RuntimeError("synthesis rollout did not finish the plan within 60 s")
+        raise SynthesisError("the learned primitives cannot synthesize this goal: their rollout does not end "
+                             "the sequence within 60 s")
     ends[:start] = 0.0
     return sens, ends
