@@ -278,3 +278,17 @@ def test_source_counts_compare_and_the_step_before_shapes_the_final_posture(caps
     hand_mm = float(out.split("the left hand by ")[1].split(" mm")[0])
     assert 5.0 < hand_mm < 50.0  # the postures differ, by a reach's fraction
     assert main(["synth-quality", "--sources", "3+2,0+9"]) == 2
+
+
+def test_a_query_beyond_the_demonstrations_is_held_inside_them(talos):
+    """The feasible set's front_left stand model is fitted on three short-cycle lengths at three
+    speeds: extrapolated a few millimetres below them, its local linear fit predicted a negative
+    duration and the synthesis never ended. Held inside what was demonstrated, every goal plans."""
+    from robot_ctrl.synthesis.demonstrations import feasible_dataset_path
+
+    feasible = load_primitives(talos, feasible_dataset_path("talos"))
+    demos = DemonstrationSet.load(feasible_dataset_path("talos"))
+    stands = [t.durations[2] for t in demos.trials if t.slot == "front_left"]
+    for distance in (1.10, 1.15, 1.25):
+        plan = Synthesizer(feasible, WalkReachGoal(distance, "front_left")).plan
+        assert min(stands) - 1e-9 <= plan[-1].duration <= max(stands) + 1e-9
