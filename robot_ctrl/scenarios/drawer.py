@@ -1,6 +1,8 @@
 """Drawer scenario (the headline task, thesis 3.8, Fig. 3.40): walk to a chest of drawers, pull the
 drawer open with the left hand and reach the object with the right, the whole pipeline at 200 Hz:
-synthesis → WPG → dynamic filter → stack-of-tasks IK → hardware, in MuJoCo with a real drawer.
+synthesis → WPG → dynamic filter → stack-of-tasks IK → hardware, in MuJoCo with a real drawer. With
+``DrawerMethod.NAIVE`` the thesis's naive baseline does the task instead: the walking controller
+walks in, then learned joint angles are played on the servos (``control/naive_commander.py``).
 
 Poses in the report are in the start frame (the base's pose at the start, on the floor).
 """
