@@ -26,6 +26,7 @@ SUMMARY_COLUMNS = (("method", "method"), ("sources", "sources"), ("speed", "spee
                    ("peak_ankle_pitch_torque_ratio", "peak ankle pitch torque / limit"),
                    ("peak_grf_ratio", "peak vertical GRF / limit"))
 PEAK_TRIALS = 3  # trials shown against time
+ERROR_BINS_MM = np.logspace(-1, 4, 41)  # 0.1 mm to 10 m
 SPEEDS = ("slow", "middle", "fast")
 #: Table 3.1: falls of 10 new trials per speed class (slow, middle, fast), naive ML per source count.
 THESIS_FALLS = {"naive 3+2": (0, 10, 7), "naive 4+3": (1, 0, 2), "naive 5+4": (0, 5, 10), "ours 4+3": (0, 0, 0)}
@@ -91,8 +92,11 @@ def _histograms(rows: list[dict]):
         group = [r for r in rows if _group(r) == label]
         steps = [abs(e) * 1e3 for r in group for e in r.get("step_length_errors_m") or []]
         hands = [r["hand_error_m"] * 1e3 for r in group if r.get("hand_error_m") is not None]
-        axes[0].hist(steps, bins=20, alpha=0.7, label=label)
-        axes[1].hist(hands, bins=20, alpha=0.7, label=label)
+        # Log bins: errors of a tenth of a millimetre and of metres on one axis.
+        axes[0].hist(np.clip(steps, 0.1, None), bins=ERROR_BINS_MM, histtype="step", lw=1.5, label=label)
+        axes[1].hist(np.clip(hands, 0.1, None), bins=ERROR_BINS_MM, histtype="step", lw=1.5, label=label)
+    for ax in axes:
+        ax.set_xscale("log")
     axes[0].axvline(10.0, color="k", ls="--", lw=1, label="thesis: < 10 mm")
     _label(axes, ("|realized − planned step length| [mm]", "right hand to object at the end [mm]"), ("count", "count"))
     return fig

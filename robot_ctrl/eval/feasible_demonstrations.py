@@ -147,7 +147,8 @@ def _shown(path: Path) -> str:
 def record_feasible_set(robot: RobotModel, source: Path, runs_dir: Path, backend: Backend, out: Path, *,
                         progress: bool = True, log: Callable[[str], None] = print) -> DemonstrationSet | None:
     """Run the feasible trials (primitives from the kinematic set ``source``) into ``runs_dir``
-    (resumable), build the set from them and save it to ``out``; None when interrupted."""
+    (resumable), build the set from them and save it to ``out``; None when interrupted. Beside the
+    runs: ``feasible_runs.json`` (their rows) and ``trials.txt`` (them as a campaign's trials file)."""
     trials = feasible_trials(source)
     specs = {t.id: t for t in trials}
     run = run_campaign([t.trial() for t in trials], runs_dir, backend,
@@ -180,4 +181,7 @@ def record_feasible_set(robot: RobotModel, source: Path, runs_dir: Path, backend
     Path(out).parent.mkdir(parents=True, exist_ok=True)
     result.save(Path(out))
     (Path(runs_dir) / "feasible_runs.json").write_text(json.dumps(run.rows, indent=2) + "\n")
+    (Path(runs_dir) / "trials.txt").write_text(  # the same sequences for a campaign (resynthesis)
+        "# the runs the feasible demonstration set was recorded from (robot-ctrl synth-demos --from-physics)\n"
+        + "".join(f"{t.distance:g} {t.slot} {t.speed.value}\n" for t in trials))
     return result
