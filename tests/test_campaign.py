@@ -149,3 +149,21 @@ def test_stopped_campaigns_resume_and_ray_gives_the_local_rows(tmp_path):
     assert rows(ray) == rows(local)
     page = (ray / "campaign.html").read_text()
     assert "data:image/png;base64," in page and "Table 3.1" in page and "<td>slow</td>" in page
+
+
+def test_the_campaign_page_sets_falls_beside_the_thesis(tmp_path):
+    """Table 3.1's layout: a row per method and source count, falls per speed class, the thesis's
+    row beside it where it has one; and the figures of Figs. 3.47, 3.41 and 3.46."""
+    from robot_ctrl.eval.campaign_report import render_campaign
+
+    rows = [{"id": f"{k:03d}", "method": method, "sources": "3+2", "speed": speed, "fell": fell, "success": not fell,
+             "error": None, "step_length_errors_m": [0.002, -0.004], "hand_error_m": 0.001,
+             "peak_ankle_pitch_torque_ratio": 1.0 if fell else 0.5, "peak_grf_ratio": 1.2 if fell else 0.8,
+             "zmp_lateral_error_rms_m": 0.012}
+            for k, (method, speed, fell) in enumerate([("naive", "slow", True), ("naive", "fast", False),
+                                                       ("ours", "slow", False), ("ours", "fast", False)])]
+    page = render_campaign({"trials": rows, "summary": summarize(rows)}, tmp_path).read_text()
+    table = page.split("Table 3.1")[1].split("</table>")[0]
+    assert "<td>naive 3+2</td><td>1 of 1</td><td>0 of 1</td><td>0 of 10</td><td>10 of 10</td><td>7 of 10</td>" in table
+    assert "<td>ours 3+2</td><td>0 of 1</td><td>0 of 1</td><td>–</td><td>–</td><td>–</td>" in table
+    assert page.count("data:image/png;base64,") == 4 and "Fig. 3.46" in page

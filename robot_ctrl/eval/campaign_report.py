@@ -2,7 +2,8 @@
 falls per method, source count and speed class beside the thesis's (Table 3.1), the summary per
 method and speed class, histograms of the step-length and hand errors (thesis Fig. 3.41, right),
 each trial's peak ankle pitch torque and vertical ground reaction force against the limits per
-method (Fig. 3.47), and both against time for the trials with the largest peaks."""
+method (Fig. 3.47), each trial's lateral ZMP error (Fig. 3.46), and the peaks against time for the
+trials with the largest ones."""
 
 from __future__ import annotations
 
@@ -84,6 +85,22 @@ def _peaks_per_method(rows: list[dict]):
     return fig
 
 
+def _lateral_zmp(rows: list[dict]):
+    """Each trial's lateral ZMP error (measured − planned across the heading, RMS over single
+    support) per method and source count (thesis Fig. 3.46); none for a method without a plan."""
+    import matplotlib.pyplot as plt
+
+    labels = sorted({_group(r) for r in rows if r.get("method") != "naive"})
+    fig, ax = plt.subplots(figsize=(10, 3.0))
+    for k, label in enumerate(labels):
+        values = [r["zmp_lateral_error_rms_m"] * 1e3 for r in rows
+                  if _group(r) == label and r.get("zmp_lateral_error_rms_m") is not None]
+        ax.plot(np.full(len(values), k) + np.linspace(-0.2, 0.2, len(values)), values, "o", ms=3, alpha=0.7)
+    ax.set_xticks(range(len(labels)), labels, rotation=20, fontsize=8)
+    ax.set_ylabel("lateral ZMP error, RMS [mm]")
+    return fig
+
+
 def _histograms(rows: list[dict]):
     import matplotlib.pyplot as plt
 
@@ -140,6 +157,8 @@ def render_campaign(campaign: dict, out_dir: Path) -> Path:
     figures = [("Peak ankle pitch torque and vertical GRF of every trial over their limits (thesis Fig. 3.47)",
                 figure_png(_peaks_per_method(rows))),
                ("Step-length and hand errors (thesis Fig. 3.41, right)", figure_png(_histograms(rows))),
+               ("Lateral ZMP error of every trial, measured − planned, RMS over single support (thesis Fig. 3.46; "
+                "the naive method has no plan after its walk-in)", figure_png(_lateral_zmp(rows))),
                (f"Ankle pitch torque and vertical GRF of the trials with the largest peaks (at most {PEAK_TRIALS}), "
                 "limits dashed (thesis Fig. 3.47)", figure_png(_peaks_over_time(rows, out_dir)))]
     images = "".join(f'<h2>{html.escape(t)}</h2><img alt="{html.escape(t)}" src="data:image/png;base64,{png}">'
