@@ -112,11 +112,14 @@ def check_drawer_tasks(tasks: dict, robot, options: dict[str, str] | None = None
     ``dataset``: the demonstrations the primitives are learned from (default: the robot's)."""
     from robot_ctrl.synthesis.learned import load_demonstrations
 
-    label = "drawer"
+    label = next(iter(tasks), "drawer").split(":")[0]  # the command, until a task is named
     try:
         demos = load_demonstrations(robot, dataset, whole_body)
         if whole_body:
-            demos.whole_body()  # refuses a set without the legs, before anything runs
+            try:
+                demos.whole_body()  # refuses a set without the legs, before anything runs
+            except ValueError as exc:
+                raise ValueError(f"--dataset: {exc}") from exc
         shortest = min(t.lengths[1] for t in demos.trials)
         for label, task in tasks.items():
             task.check(demos.comfort_distance, shortest)
