@@ -38,10 +38,9 @@ def _campaign(args: argparse.Namespace) -> int:
     except (OSError, ValueError) as exc:
         raise ConfigError(f"campaign: {exc}".replace("speed ", "--speeds ").replace("method ", "--method ")) from exc
     sources = parse_sources(args.sources, "campaign: --sources")
-    trials = [replace(t, index=k, sources=f"{first}+{extra}") for k, (t, (first, extra)) in
+    dataset = str(args.dataset.resolve()) if args.dataset is not None else None
+    trials = [replace(t, index=k, sources=f"{first}+{extra}", dataset=dataset) for k, (t, (first, extra)) in
               enumerate((t, s) for t in trials for s in sources)]
-    if args.dataset is not None:
-        trials = [replace(t, dataset=str(args.dataset.resolve())) for t in trials]
     robot = load_robot("talos")
     for naive in (False, True):
         tasks = {f"campaign: trial {t.id}": DrawerTask(t.distance, t.slot, (GoalJump(*t.jump),) if t.jump else (),

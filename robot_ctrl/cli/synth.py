@@ -18,13 +18,15 @@ from robot_ctrl.cli.options import (
 from robot_ctrl.robot.config import ConfigError
 
 
-def _synth_primitives(args: argparse.Namespace):
+def _synth_primitives(args: argparse.Namespace, sources: tuple[int, int] | None = None):
+    """The robot and its primitives learned from ``--dataset`` with ``sources`` (default: the default
+    count); a missing or unusable dataset is one line."""
     from robot_ctrl.robot.model import load_robot
-    from robot_ctrl.synthesis.learned import load_primitives
+    from robot_ctrl.synthesis.learned import DEFAULT_SOURCES, load_primitives
 
     robot = load_robot(args.robot)
     try:
-        return robot, load_primitives(robot, args.dataset)
+        return robot, load_primitives(robot, args.dataset, sources or DEFAULT_SOURCES)
     except (FileNotFoundError, ValueError) as exc:
         raise ConfigError(f"synth: {exc}") from exc
 
@@ -59,20 +61,15 @@ def _synth(args: argparse.Namespace) -> int:
 
 
 def _synth_quality(args: argparse.Namespace) -> int:
-    from robot_ctrl.synthesis.stepwise import learn_stepwise, quality_table, resample_actions
-
-    splits = parse_sources(args.sources, "synth-quality: --sources")
-    robot, primitives = _synth_primitives(args)
     from robot_ctrl.synthesis.learned import load_demonstrations
 
-    demos = load_demonstrations(robot, args.dataset)
-    X = resample_actions(demos, 50)
+    splits = parse_sources(args.sources, "synth-quality: --sources")
+    learned = [_synth_primitives(args, split) for split in splits]  # each learned once, then cached
+    demos = load_demonstrations(learned[0][0], args.dataset)
     print(f"{demos.provenance.get('source', 'unknown')} demonstrations: {len(demos.trials)} trials")
     print("sources  action  sources (s0 + periodic)  Q anechoic  Q PCA (same count)  PCA components for the same Q")
-    for first, extra in splits:
-        rows = primitives.quality if (first, extra) == primitives.sources else quality_table(
-            X, learn_stepwise(X, first, extra))
-        for row in rows:
+    for (first, extra), (_, primitives) in zip(splits, learned):
+        for row in primitives.quality:
             print(f"{f'{first}+{extra}':>7}  {row['action']:>6}  {row['sources']:>23}  {row['Q_anechoic']:>10.4f}  "
                   f"{row['Q_pca']:>18.4f}  {row['pca_needed']:>29}")
     return 0

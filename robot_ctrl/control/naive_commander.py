@@ -23,7 +23,7 @@ import numpy as np
 from robot_ctrl.control.drawer_targets import DrawerTargets
 from robot_ctrl.control.joint_playback import JointPlayback
 from robot_ctrl.control.synthesized_body import SynthesizedBody
-from robot_ctrl.control.walk_reach_commander import WALK_IN_STEPS
+from robot_ctrl.control.walk_reach_commander import WALK_IN_STEPS, gait_time_scale, step_synthesis
 from robot_ctrl.control.walking_controller import PlanSample
 from robot_ctrl.geometry import minimum_jerk
 from robot_ctrl.robot.model import configuration
@@ -54,7 +54,7 @@ class NaiveCommander:
         self.t = 0.0
         self._handover: tuple[float, np.ndarray] | None = None  # (time [s], the walking controller's last angles)
         first = Synthesizer(primitives, self._goal(0.0)).plan[0]
-        controller.set_time_scale(float(np.clip(first.duration / speed / (2 * controller.params.step_period), 0.5, 2.0)))
+        controller.set_time_scale(gait_time_scale(controller, first.duration, speed))
         controller.set_velocity(speed * first.length / first.duration, 0.0, 0.0)
         controller.on_sample(self._on_sample)
 
@@ -80,14 +80,9 @@ class NaiveCommander:
         self.t = t
         if self.synth is None or self.synth.finished:
             return
-        index = self.synth.action_index
-        output = self.synth.step(self.controller.dt * self.speed, self._goal(t))
-        if self.synth.finished:
-            self.boundaries.append((t, Action.ENDED))
-        else:
+        output = step_synthesis(self.synth, self.controller.dt * self.speed, self._goal(t), t, self.boundaries)
+        if output is not None:
             self.output = output
-            if self.synth.action_index != index:
-                self.boundaries.append((t, self.synth.plan[self.synth.action_index].action))
         q = self.output.upper_body_q[self._joints]
         start, walked = self._handover
         s, _ = minimum_jerk(t - start, HANDOVER_BLEND)

@@ -39,7 +39,7 @@ from robot_ctrl.control.walking_controller import PlanSample, WalkingController
 from robot_ctrl.geometry import SIDES, minimum_jerk, rotation
 from robot_ctrl.synthesis.primitives import WalkReachPrimitives
 from robot_ctrl.synthesis.step_planning import Action
-from robot_ctrl.synthesis.synthesizer import SynthesisPreview, Synthesizer, WalkReachGoal
+from robot_ctrl.synthesis.synthesizer import SynthesisOutput, SynthesisPreview, Synthesizer, WalkReachGoal
 from robot_ctrl.wpg.footstep import Footstep
 
 POSITION_GAIN = 2.5  # [1/s] feedback of the planned pelvis's lag behind the synthesized advance
@@ -59,6 +59,28 @@ SLOWING_LAG = 0.03  # [m] measured pelvis lag at which the synthesis runs at MIN
 FAST_SLOWING_EXPONENT = 4
 MIN_SYNTHESIS_RATE = 0.2
 GRASP_TIMEOUT = 2.0  # [s] after the sequence, a hand that never got hold of the handle gives up
+
+
+def gait_time_scale(controller: WalkingController, duration: float, speed: float) -> float:
+    """The gait's time scale for an action of ``duration`` [s] of synthesis time played ``speed``
+    times as fast: one action is two steps."""
+    period = 2 * controller.params.step_period
+    return float(np.clip(duration / speed / period, 0.5, 2.0))
+
+
+def step_synthesis(synth: Synthesizer, dt: float, goal: WalkReachGoal, t: float,
+                   boundaries: list[tuple[float, Action]]) -> SynthesisOutput | None:
+    """Advance ``synth`` by ``dt`` [s] of its time towards ``goal``; an action that starts, or the
+    sequence's end (``Action.ENDED``), is appended to ``boundaries`` at time ``t`` [s]. Returns the new
+    output, None once the sequence has ended."""
+    index = synth.action_index
+    output = synth.step(dt, goal)
+    if synth.finished:
+        boundaries.append((t, Action.ENDED))
+        return None
+    if synth.action_index != index:
+        boundaries.append((t, synth.plan[synth.action_index].action))
+    return output
 
 
 class WalkReachCommander:
@@ -100,7 +122,7 @@ class WalkReachCommander:
         self._walk_in_posture = self.base_posture.copy()
         self._walk_in_posture[self.body.upper] = dry.step(controller.dt).upper_body_q
         controller.set_upper_body(self.posture)
-        controller.set_time_scale(self._gait_scale(first.duration))
+        controller.set_time_scale(gait_time_scale(controller, first.duration, speed))
         controller.set_velocity(speed * first.length / first.duration, 0.0, 0.0)
         controller.on_sample(self._on_sample)
 
@@ -157,14 +179,10 @@ class WalkReachCommander:
             self._posture_now = self.base_posture + s * (self._walk_in_posture - self.base_posture)
             return
         if not self.synth.finished:
-            index = self.synth.action_index
-            output = self.synth.step(self.controller.dt * self._synthesis_rate() * self.speed, self._goal(t))
-            if self.synth.finished:
-                self.boundaries.append((t, Action.ENDED))
-            else:
+            output = step_synthesis(self.synth, self.controller.dt * self._synthesis_rate() * self.speed,
+                                    self._goal(t), t, self.boundaries)
+            if output is not None:
                 self.output = output
-                if self.synth.action_index != index:
-                    self.boundaries.append((t, self.synth.plan[self.synth.action_index].action))
         share = 1.0 if self.synth.finished else self.output.phase / (2 * np.pi)
         upper = self.output.upper_body_q
         self._posture_now = self.base_posture.copy()
@@ -174,12 +192,6 @@ class WalkReachCommander:
         elif self._last_short:
             self.hands.reach(t, share, upper, self._posture_now, self._final_upper)
         self._lean(share)
-
-    def _gait_scale(self, duration: float) -> float:
-        """The gait's time scale for an action of ``duration`` [s] of synthesis time: one action is
-        two steps."""
-        period = 2 * self.controller.params.step_period
-        return float(np.clip(duration / self.speed / period, 0.5, 2.0))
 
     def _synthesis_rate(self) -> float:
         """How fast the synthesis's time runs against the robot's. Over the second half of the last
@@ -234,7 +246,7 @@ class WalkReachCommander:
         self._preview_t = sample.t
         if plan.action is Action.STAND:
             return
-        c.set_time_scale(self._gait_scale(plan.duration))
+        c.set_time_scale(gait_time_scale(c, plan.duration, self.speed))
         if self._last_short and self.position_feedback:
             target = self.synth_start_advance + self.synth.targets[-1]
             if self.stopping_at != target:

@@ -21,7 +21,7 @@ import numpy as np
 
 from robot_ctrl.eval.campaign_backends import Backend
 from robot_ctrl.eval.campaign_report import render_campaign
-from robot_ctrl.eval.campaign_runner import run_campaign
+from robot_ctrl.eval.campaign_runner import CampaignRun, run_campaign
 from robot_ctrl.eval.trial_process import Trial, TrialOutcome
 from robot_ctrl.geometry.drawer import SLOTS
 from robot_ctrl.modes import FilterMode, SpeedClass
@@ -174,15 +174,21 @@ def summarize(rows: Sequence[dict]) -> list[dict]:
     return out
 
 
+def run_drawer_trials(trials: Sequence[DrawerTrial], out_dir: Path, backend: Backend, *,
+                      timeout: float = TRIAL_TIMEOUT, progress: bool = True, label: str = "drawer trials") -> CampaignRun:
+    """Run the drawer trials not yet done in ``out_dir``, each row from :func:`drawer_row`."""
+    specs = {t.id: t for t in trials}
+    return run_campaign([t.trial() for t in trials], out_dir, backend,
+                        lambda trial, report, outcome: drawer_row(specs[trial.id], report, outcome),
+                        timeout=timeout, progress=progress, label=label)
+
+
 def run_drawer_campaign(trials: Sequence[DrawerTrial], out_dir: Path, backend: Backend, *,
                         timeout: float = TRIAL_TIMEOUT, progress: bool = True,
                         log: Callable[[str], None] = print) -> dict | None:
     """Run the trials not yet done in ``out_dir``; when all are, write ``campaign.json`` and
     ``campaign.html`` and return the campaign; None when interrupted."""
-    specs = {t.id: t for t in trials}
-    run = run_campaign([t.trial() for t in trials], out_dir, backend,
-                       lambda trial, report, outcome: drawer_row(specs[trial.id], report, outcome),
-                       timeout=timeout, progress=progress, label="drawer trials")
+    run = run_drawer_trials(trials, out_dir, backend, timeout=timeout, progress=progress)
     if not run.complete:
         log(f"{len(run.rows)} of {len(trials)} trials done; run the same command again to finish the campaign")
         return None

@@ -38,8 +38,8 @@ import numpy as np
 
 from robot_ctrl import ROOT
 from robot_ctrl.eval.campaign_backends import Backend
-from robot_ctrl.eval.campaign_runner import run_campaign, trial_dir
-from robot_ctrl.eval.drawer_campaign import TRIAL_TIMEOUT, DrawerTrial, drawer_row
+from robot_ctrl.eval.campaign_runner import trial_dir
+from robot_ctrl.eval.drawer_campaign import DrawerTrial, run_drawer_trials
 from robot_ctrl.geometry import GRAVITY
 from robot_ctrl.modes import SpeedClass
 from robot_ctrl.robot.model import RobotModel
@@ -150,10 +150,7 @@ def record_feasible_set(robot: RobotModel, source: Path, runs_dir: Path, backend
     (resumable), build the set from them and save it to ``out``; None when interrupted. Beside the
     runs: ``feasible_runs.json`` (their rows) and ``trials.txt`` (them as a campaign's trials file)."""
     trials = feasible_trials(source)
-    specs = {t.id: t for t in trials}
-    run = run_campaign([t.trial() for t in trials], runs_dir, backend,
-                       lambda trial, report, outcome: drawer_row(specs[trial.id], report, outcome),
-                       timeout=TRIAL_TIMEOUT, progress=progress, label="feasible runs")
+    run = run_drawer_trials(trials, runs_dir, backend, progress=progress, label="feasible runs")
     if not run.complete:
         log(f"{len(run.rows)} of {len(trials)} runs done; run the same command again to finish them")
         return None
