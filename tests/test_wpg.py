@@ -7,7 +7,7 @@ import pytest
 
 from robot_ctrl.geometry import PlanarMove, rotation
 from robot_ctrl.wpg.footstep import Footstep
-from robot_ctrl.wpg.generator import WalkingPatternGenerator
+from robot_ctrl.wpg.generator import STOP_TOLERANCE, WalkingPatternGenerator
 from robot_ctrl.wpg.lipm import com_at, horizon_matrices
 from robot_ctrl.wpg.params import WalkParams
 
@@ -135,6 +135,30 @@ def test_stop_at_puts_the_feet_on_the_goal():
     assert gen.standing
     for side in ("left", "right"):
         np.testing.assert_allclose(gen.feet[side].xy, goal[side].xy, atol=1e-9)
+
+
+def test_stop_at_stands_although_every_landed_sole_turns_a_little():
+    """A real sole lands a few milliradians off its footstep's yaw and the plan follows it
+    (``shift``): the stop must still end on the goal footsteps within the stop tolerances instead of
+    stepping in place to take out what the next landing brings back."""
+    gen = standing_generator()
+    gen.set_velocity(0.2, 0.0, 0.0)
+    for _ in range(30):
+        gen.update()
+    ahead = gen.feet[gen.stance].x + 0.3
+    goal = {"left": Footstep("left", ahead, 0.085, 0.0), "right": Footstep("right", ahead, -0.085, 0.0)}
+    gen.stop_at(goal["left"], goal["right"])
+    landed = len(gen.touchdowns)
+    for _ in range(100):
+        before = len(gen.touchdowns)
+        gen.update()
+        if len(gen.touchdowns) > before:  # the sole turned on landing by 9 mrad, alternately
+            foot = gen.touchdowns[-1].planned
+            gen.shift(PlanarMove(np.zeros(2), 0.009 * (-1) ** len(gen.touchdowns), foot.xy))
+    assert gen.standing
+    assert len(gen.touchdowns) - landed <= 4
+    for side in ("left", "right"):
+        np.testing.assert_allclose(gen.feet[side].xy, goal[side].xy, atol=STOP_TOLERANCE)
 
 
 def test_a_pushed_plan_moves_a_frozen_landing():

@@ -38,7 +38,7 @@ from robot_ctrl.control.synthesized_body import SynthesizedBody
 from robot_ctrl.control.walking_controller import PlanSample, WalkingController
 from robot_ctrl.geometry import SIDES, minimum_jerk, rotation
 from robot_ctrl.synthesis.primitives import WalkReachPrimitives
-from robot_ctrl.synthesis.step_planning import Action
+from robot_ctrl.synthesis.step_planning import BETA, Action
 from robot_ctrl.synthesis.synthesizer import SynthesisOutput, SynthesisPreview, Synthesizer, WalkReachGoal
 from robot_ctrl.wpg.footstep import Footstep
 
@@ -58,6 +58,9 @@ SLOWING_LAG = 0.03  # [m] measured pelvis lag at which the synthesis runs at MIN
 #: docs/campaigns.md).
 FAST_SLOWING_EXPONENT = 4
 MIN_SYNTHESIS_RATE = 0.2
+STAND_BLEND_PHASE = (2 - BETA) * np.pi  # [rad] of the last short cycle: its blend into standing begins
+STAND_READY_LAG = 0.002  # [m]
+MAX_STAND_WAIT = 1.0  # [s]
 GRASP_TIMEOUT = 2.0  # [s] after the sequence, a hand that never got hold of the handle gives up
 
 
@@ -112,6 +115,8 @@ class WalkReachCommander:
         self.boundaries: list[tuple[float, Action]] = []  # (time [s], action) at each action start, ENDED at the end
         self._stance_shift = 0.0  # [m] the stop stance ahead of the pelvis's target (:meth:`_stop`)
         self._lean_integral = 0.0  # [m]
+        self._stood_at: float | None = None  # [s] when the plan stood on its stop footsteps
+        self._waiting_for_pelvis = False  # standing begins once the pelvis has arrived
         self.t = 0.0
         self._com_from_pelvis = controller.reference_com()[:2] - controller.reference_configuration()[:2]  # world axes
         self._com_offset = float(self._com_from_pelvis @ self.heading[:, 0])
@@ -178,9 +183,9 @@ class WalkReachCommander:
             s, _ = minimum_jerk(t, WALK_IN_BLEND)
             self._posture_now = self.base_posture + s * (self._walk_in_posture - self.base_posture)
             return
-        if not self.synth.finished:
-            output = step_synthesis(self.synth, self.controller.dt * self._synthesis_rate() * self.speed,
-                                    self._goal(t), t, self.boundaries)
+        rate = 0.0 if self.synth.finished else self._synthesis_rate()
+        if rate > 0.0:
+            output = step_synthesis(self.synth, self.controller.dt * rate * self.speed, self._goal(t), t, self.boundaries)
             if output is not None:
                 self.output = output
         share = 1.0 if self.synth.finished else self.output.phase / (2 * np.pi)
@@ -197,10 +202,23 @@ class WalkReachCommander:
         """How fast the synthesis's time runs against the robot's. Over the second half of the last
         short cycle, the leader oscillator slows while the measured pelvis lags the synthesized one:
         the synthesized pelvis comes to rest at once, the walking robot's settles over about half a
-        second, and the next action (standing, the pull) must not begin before it has."""
+        second, and the next action (standing, the pull) must not begin before it has. Its blend into
+        standing waits (rate 0) while the robot still steps (a stop can take a step more than the
+        synthesis planned, when a landing missed its stop footstep), then while the standing pelvis
+        lags by more than ``STAND_READY_LAG`` (at most ``MAX_STAND_WAIT``; the lean integrates the
+        lag out meanwhile)."""
+        self._waiting_for_pelvis = False
         if not self.position_feedback or self.output is None or not self._last_short or self.output.phase < np.pi:
             return 1.0
         lag = self.synth_start_advance + self.synth.progress - self.advance()
+        if self.output.phase >= STAND_BLEND_PHASE:
+            if not self.controller.standing:
+                self._stood_at = None
+                return 0.0
+            self._stood_at = self.t if self._stood_at is None else self._stood_at
+            self._waiting_for_pelvis = lag > STAND_READY_LAG and self.t - self._stood_at < MAX_STAND_WAIT
+            if self._waiting_for_pelvis:  # the lean takes the lag out meanwhile (_lean)
+                return 0.0
         return float(np.clip(1.0 - lag / self._slowing_lag, MIN_SYNTHESIS_RATE, 1.0))
 
     @property
@@ -217,15 +235,16 @@ class WalkReachCommander:
     def _lean(self, share: float) -> None:
         """From the last short cycle on, lean the CoM by what the synthesized arms move it against the
         pelvis, less the stance's own forward shift (:meth:`_stop`), so that the pelvis ends at the
-        comfort distance with the ZMP a few centimetres off the soles' centre; standing, the measured
-        pelvis's remaining error is integrated in as well."""
+        comfort distance with the ZMP a few centimetres off the soles' centre; standing, and while
+        standing waits for the pelvis (:meth:`_synthesis_rate`), the measured pelvis's remaining
+        error is integrated in as well."""
         c = self.controller
         if self.stopping_at is None:
             return
         s = 1.0 if self.output.action is Action.STAND else minimum_jerk(share, 0.5)[0]
         forward = self.targets.forward[:2]
         arms = c.reference_com()[:2] - c.reference_configuration()[:2] - self._com_from_pelvis - forward * self._stance_shift
-        if self.output.action is Action.STAND:
+        if self.output.action is Action.STAND or self._waiting_for_pelvis:
             self._lean_integral += PELVIS_GAIN * c.dt * (self.stopping_at - self.advance())
         c.shift_balance(s * arms + self._lean_integral * forward)
 

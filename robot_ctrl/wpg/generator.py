@@ -43,6 +43,9 @@ from robot_ctrl.wpg.swing import SwingTrajectory
 #: step to correct less than this would land as far off again, moving the robot while its hands
 #: work.
 STOP_TOLERANCE = 0.01
+#: [rad] the same for a foot's yaw: a landed sole turns by a few milliradians on the floor, and the
+#: plan that follows it would otherwise step in place for ever to take them out.
+STOP_YAW_TOLERANCE = 0.02
 
 Landing = tuple[int, FootRef, FootRef | None]  # footstep variable index, the foot, the footstep it is fixed to
 
@@ -213,7 +216,7 @@ class WalkingPatternGenerator:
     def _at_goal(self, foot: FootRef) -> bool:
         goal = self.stop_feet[foot.side]
         return (not foot.S.any() and np.allclose(foot.offset, goal.xy, atol=STOP_TOLERANCE)
-                and abs(wrap_angle(foot.yaw - goal.yaw)) < 1e-6)
+                and abs(wrap_angle(foot.yaw - goal.yaw)) <= STOP_YAW_TOLERANCE)
 
     def problem(self) -> MpcProblem:
         """The MPC problem of the current sample, from the plan's own CoM state."""
