@@ -12,8 +12,9 @@ import time
 import pytest
 
 from robot_ctrl.cli import main
-from robot_ctrl.eval.drawer_campaign import DRAWN_DISTANCES, draw_trials, read_trials, summarize
+from robot_ctrl.eval.drawer_campaign import DRAWN_DISTANCES, draw_trials, method_dataset, read_trials, summarize
 from robot_ctrl.modes import FilterMode, SpeedClass
+from robot_ctrl.synthesis.demonstrations import kinematic_dataset_path
 
 TRIALS = """# distance slot speed [jump_time jump_distance]
 1.6 back_left slow
@@ -62,6 +63,10 @@ def test_trials_from_a_file_and_drawn_at_random(tmp_path):
     naive = dataclasses.replace(trials[1], method="naive", sources="5+4", dataset="/data/feasible.npz").trial()
     assert naive.argv[-6:] == ("--sources", "5+4", "--dataset", "/data/feasible.npz", "--method", "naive")
     assert naive.id == "001_naive_5+4_front_right_1.700m_fast"
+    # the thesis's "WPG": the pipeline on the primitives the feasible runs came from, whatever --dataset says
+    wpg = dataclasses.replace(trials[1], method="wpg-direct", dataset=method_dataset("wpg-direct", "/data/feasible.npz"))
+    assert wpg.trial().argv[-2:] == ("--dataset", str(kinematic_dataset_path("talos")))
+    assert method_dataset("ours", "/data/feasible.npz") == "/data/feasible.npz"
     drawn = draw_trials(30, 1, (SpeedClass.SLOW, SpeedClass.MIDDLE, SpeedClass.FAST), ("ours",), FilterMode.FULL)
     classes = (SpeedClass.SLOW, SpeedClass.MIDDLE, SpeedClass.FAST)
     assert drawn == draw_trials(30, 1, classes, ("ours",), FilterMode.FULL)
@@ -167,3 +172,26 @@ def test_the_campaign_page_sets_falls_beside_the_thesis(tmp_path):
     assert "<td>naive 3+2</td><td>1 of 1</td><td>0 of 1</td><td>0 of 10</td><td>10 of 10</td><td>7 of 10</td>" in table
     assert "<td>ours 3+2</td><td>0 of 1</td><td>0 of 1</td><td>–</td><td>–</td><td>–</td>" in table
     assert page.count("data:image/png;base64,") == 4 and "Fig. 3.46" in page
+
+
+def test_the_campaign_page_shows_the_posture_after_the_step_before(tmp_path, talos):
+    """Fig. 3.38 for the primitives of the campaign's own trials: two goals whose last short cycles
+    differ end in different standing postures, per demonstration set and source count."""
+    from robot_ctrl.eval.campaign_report import render_campaign
+    from robot_ctrl.eval.drawer_campaign import campaign_transitions, transition_figure
+    from robot_ctrl.eval.transition_postures import transition_summary
+    from robot_ctrl.synthesis.demonstrations import feasible_dataset_path
+
+    rows = [{"id": "000", "method": method, "dataset": str(feasible_dataset_path("talos")), "sources": "3+2",
+             "speed": "slow", "fell": False, "success": True, "error": None}
+            for method in ("ours", "naive")]  # the naive method has no standing posture of its own
+    transitions = campaign_transitions(rows, talos)
+    assert [group for group, _ in transitions] == [{"dataset": rows[0]["dataset"], "sources": "3+2"}]
+    summary = transition_summary(transitions[0][1])
+    assert summary["short_cycles_m"] == [0.1744, 0.2514] and summary["transition_left_hand_distance_m"] > 0.002
+    page = render_campaign({"trials": rows, "summary": summarize(rows),
+                            "transition_postures": [g | transition_summary(p) for g, p in transitions]},
+                           tmp_path, transition_figure(talos, transitions)).read_text()
+    section = page.split("Fig. 3.38", 1)[1]
+    assert "<td>talos_walk_reach_feasible.npz</td><td>3+2</td><td>17.4 / 25.1</td>" in section
+    assert "data:image/png;base64," in section

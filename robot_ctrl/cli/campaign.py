@@ -39,15 +39,14 @@ def _campaign(args: argparse.Namespace) -> int:
         raise ConfigError(f"campaign: {exc}".replace("speed ", "--speeds ").replace("method ", "--method ")) from exc
     sources = parse_sources(args.sources, "campaign: --sources")
     dataset = str(args.dataset.resolve()) if args.dataset is not None else None
-    trials = [replace(t, index=k, sources=f"{first}+{extra}", dataset=dataset) for k, (t, (first, extra)) in
-              enumerate((t, s) for t in trials for s in sources)]
+    trials = [replace(t, index=k, sources=f"{first}+{extra}", dataset=campaign.method_dataset(t.method, dataset))
+              for k, (t, (first, extra)) in enumerate((t, s) for t in trials for s in sources)]
     robot = load_robot("talos")
-    for naive in (False, True):
+    for demos, naive in sorted({(t.dataset, t.method == "naive") for t in trials}, key=str):  # each set, checked once
         tasks = {f"campaign: trial {t.id}": DrawerTask(t.distance, t.slot, (GoalJump(*t.jump),) if t.jump else (),
                                                        t.dynfilter, speed=t.speed)
-                 for t in trials if (t.method == "naive") == naive}
-        if tasks:
-            check_drawer_tasks(tasks, robot, dataset=args.dataset, whole_body=naive)
+                 for t in trials if (t.dataset, t.method == "naive") == (demos, naive)}
+        check_drawer_tasks(tasks, robot, dataset=None if demos is None else Path(demos), whole_body=naive)
     backend = backend_of(args, "campaign")
     args.out.mkdir(parents=True, exist_ok=True)
     result = campaign.run_drawer_campaign(trials, args.out, backend, timeout=args.timeout, progress=not args.quiet,
@@ -84,7 +83,8 @@ def add_parsers(sub) -> None:
                    help="speed classes of the drawn trials, in turn (slow 0.8, middle 0.92, nominal 1.0, fast 1.2)")
     p.add_argument("--method", default="ours",
                    help="comma-separated methods: ours, ours-no-feedback (the commander's position loops off), naive "
-                        "(every joint learned and played on the servos, thesis 3.8.4)")
+                        "(every joint learned and played on the servos, thesis 3.8.4), wpg-direct (the generator of "
+                        "the feasible training runs: the pipeline on the kinematic set's primitives)")
     p.add_argument("--dynfilter", choices=[m.value for m in FilterMode], default=FilterMode.FULL.value,
                    help="dynamic filter of every trial")
     dataset_arg(p)

@@ -2,8 +2,9 @@
 falls per method, source count and speed class beside the thesis's (Table 3.1), the summary per
 method and speed class, histograms of the step-length and hand errors (thesis Fig. 3.41, right),
 each trial's peak ankle pitch torque and vertical ground reaction force against the limits per
-method (Fig. 3.47), each trial's lateral ZMP error (Fig. 3.46), and the peaks against time for the
-trials with the largest ones."""
+method (Fig. 3.47), each trial's lateral ZMP error (Fig. 3.46), the peaks against time for the
+trials with the largest ones, and the learned posture's dependence on the step before standing
+(Fig. 3.38)."""
 
 from __future__ import annotations
 
@@ -140,7 +141,22 @@ def _peaks_over_time(rows: list[dict], out_dir: Path):
     return fig
 
 
-def render_campaign(campaign: dict, out_dir: Path) -> Path:
+def _transitions_section(transitions: list[dict], png: str) -> str:
+    """Fig. 3.38: a row per primitives (how far the two postures are apart) and their side views."""
+    rows = "".join(f"<tr><td>{html.escape(Path(t['dataset']).name if t['dataset'] else 'default set')}</td>"
+                   f"<td>{html.escape(t['sources'])}</td><td>{t['short_cycles_m'][0] * 100:.1f} / "
+                   f"{t['short_cycles_m'][1] * 100:.1f}</td><td>{t['transition_max_joint_difference_rad']:.3f}</td>"
+                   f"<td>{t['transition_left_hand_distance_m'] * 1e3:.1f}</td></tr>" for t in transitions)
+    title = "Posture at the switch to standing after a shorter and a longer last step (thesis Fig. 3.38)"
+    return (f"<h2>{html.escape(title)}</h2><p>The synthesis alone (kinematic), two goals ending at the same comfort "
+            "distance: the learned standing posture depends on the step before it.</p><table><tr><th>demonstrations"
+            "</th><th>sources</th><th>short cycles [cm]</th><th>upper body apart [rad]</th><th>left hand apart [mm]"
+            f'</th></tr>{rows}</table><img alt="{html.escape(title)}" src="data:image/png;base64,{png}">')
+
+
+def render_campaign(campaign: dict, out_dir: Path, transition_figure=None) -> Path:
+    """Write ``out_dir/campaign.html``; ``transition_figure``: a matplotlib figure of the postures
+    at the switch to standing (Fig. 3.38), whose figures ``campaign["transition_postures"]`` holds."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -163,6 +179,8 @@ def render_campaign(campaign: dict, out_dir: Path) -> Path:
                 "limits dashed (thesis Fig. 3.47)", figure_png(_peaks_over_time(rows, out_dir)))]
     images = "".join(f'<h2>{html.escape(t)}</h2><img alt="{html.escape(t)}" src="data:image/png;base64,{png}">'
                      for t, png in figures)
+    if transition_figure is not None:
+        images += _transitions_section(campaign.get("transition_postures", []), figure_png(transition_figure))
     page = f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>robot_ctrl drawer campaign: {len(rows)} trials</title>
 <style>body{{font-family:sans-serif;max-width:1100px;margin:2em auto;}} table{{border-collapse:collapse;}}

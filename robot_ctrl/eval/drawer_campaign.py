@@ -22,9 +22,19 @@ import numpy as np
 from robot_ctrl.eval.campaign_backends import Backend
 from robot_ctrl.eval.campaign_report import render_campaign
 from robot_ctrl.eval.campaign_runner import CampaignRun, run_campaign
+from robot_ctrl.eval.transition_postures import (
+    TRANSITION_DISTANCES,
+    TRANSITION_SLOT,
+    draw_transition_postures,
+    transition_postures,
+    transition_summary,
+)
 from robot_ctrl.eval.trial_process import Trial, TrialOutcome
 from robot_ctrl.geometry.drawer import SLOTS
 from robot_ctrl.modes import FilterMode, SpeedClass
+from robot_ctrl.robot.model import RobotModel, load_robot
+from robot_ctrl.synthesis.demonstrations import kinematic_dataset_path
+from robot_ctrl.synthesis.learned import load_primitives
 
 #: Where random trials' cabinets stand [m] from the start pelvis. Every training sequence's goal
 #: lies within 1.83 m (the synthesis's 1.05-1.53 m, plus the walk before it starts): these are new.
@@ -72,9 +82,18 @@ def _naive(t: DrawerTrial) -> tuple[str, ...]:
     return (*_ours(t), "--method", "naive")
 
 
-#: Method name → the command line of one trial.
+#: Method name → the command line of one trial. ``wpg-direct`` (the thesis's "WPG" of Fig. 3.47) is
+#: the generator of the feasible training runs applied to the new goal: the whole pipeline driven
+#: by the primitives those runs were played from (the kinematic set, our stand-in for the thesis's
+#: primitives learned from human data; :func:`method_dataset`), not by primitives learned from them.
 METHODS: dict[str, Callable[[DrawerTrial], tuple[str, ...]]] = {"ours": _ours, "ours-no-feedback": _ours_no_feedback,
-                                                                 "naive": _naive}
+                                                                 "naive": _naive, "wpg-direct": _ours}
+
+
+def method_dataset(method: str, dataset: str | None, robot: str = "talos") -> str | None:
+    """The demonstration set a method's primitives are learned from (``dataset``: the campaign's
+    ``--dataset``, None for the robot's default)."""
+    return str(kinematic_dataset_path(robot)) if method == "wpg-direct" else dataset
 
 
 def parse_methods(text: str) -> tuple[str, ...]:
@@ -192,10 +211,42 @@ def run_drawer_campaign(trials: Sequence[DrawerTrial], out_dir: Path, backend: B
     if not run.complete:
         log(f"{len(run.rows)} of {len(trials)} trials done; run the same command again to finish the campaign")
         return None
-    campaign = {"trials": run.rows, "summary": summarize(run.rows)}
+    robot = load_robot("talos")
+    transitions = campaign_transitions(run.rows, robot)
+    campaign = {"trials": run.rows, "summary": summarize(run.rows),
+                "transition_postures": [t | transition_summary(postures) for t, postures in transitions]}
     out_dir = Path(out_dir)
     tmp = out_dir / ".campaign.json.partial"
     tmp.write_text(json.dumps(campaign, indent=2) + "\n")
     tmp.replace(out_dir / "campaign.json")
-    log(f"wrote {out_dir / 'campaign.json'} and {render_campaign(campaign, out_dir)}")
+    log(f"wrote {out_dir / 'campaign.json'} and {render_campaign(campaign, out_dir, transition_figure(robot, transitions))}")
     return campaign
+
+
+def campaign_transitions(rows: Sequence[dict], robot: RobotModel) -> list[tuple[dict, list[dict]]]:
+    """Thesis Fig. 3.38 for the primitives of the campaign's ``ours`` trials, one per demonstration
+    set and source count: ``({"dataset", "sources"}, transition_postures(...))`` at
+    ``TRANSITION_DISTANCES`` (kinematic: the synthesis alone, no physics)."""
+    groups = sorted({(r.get("dataset"), r.get("sources", "3+2")) for r in rows if r["method"] == "ours"}, key=str)
+    out = []
+    for dataset, sources in groups:
+        primitives = load_primitives(robot, Path(dataset) if dataset else None, tuple(int(n) for n in sources.split("+")))
+        postures = transition_postures(robot, primitives, TRANSITION_DISTANCES, TRANSITION_SLOT)
+        out.append(({"dataset": dataset, "sources": sources}, postures))
+    return out
+
+
+def transition_figure(robot: RobotModel, transitions: list[tuple[dict, list[dict]]]):
+    """One side view per primitives of :func:`campaign_transitions` (None without any)."""
+    if not transitions:
+        return None
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, len(transitions), figsize=(4.5 * len(transitions), 6.5), squeeze=False)
+    for ax, (group, postures) in zip(axes[0], transitions):
+        name = Path(group["dataset"]).name if group["dataset"] else "default set"
+        draw_transition_postures(robot, postures, ax, f"{name}, {group['sources']} sources")
+    return fig

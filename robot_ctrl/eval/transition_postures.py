@@ -20,6 +20,11 @@ from robot_ctrl.synthesis.primitives import WalkReachPrimitives
 from robot_ctrl.synthesis.step_planning import Action
 from robot_ctrl.synthesis.synthesizer import Synthesizer, WalkReachGoal
 
+#: The two goals compared (distances from the synthesis's start [m]) and their object slot: short
+#: cycles of about 17 and 25 cm before the same comfort distance.
+TRANSITION_DISTANCES = (1.10, 1.30)
+TRANSITION_SLOT = "back_right"
+
 
 def transition_postures(robot: RobotModel, primitives: WalkReachPrimitives, distances: tuple[float, ...], slot: str,
                         dt: float = 0.005) -> list[dict]:
@@ -58,16 +63,27 @@ def transition_summary(postures: list[dict]) -> dict:
 
 
 def plot_transition_postures(robot: RobotModel, postures: list[dict], path: Path) -> Path:
-    """Side view (x forward, z up) of the robot's skeleton at each transition posture, overlaid
-    (red, green: the thesis's colours)."""
+    """:func:`draw_transition_postures` into a PNG at ``path``."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    fig, ax = plt.subplots(figsize=(4.5, 6.5))
+    draw_transition_postures(robot, postures, ax)
+    fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def draw_transition_postures(robot: RobotModel, postures: list[dict], ax, title: str = "") -> None:
+    """Side view (x forward, z up) of the robot's skeleton at each transition posture, overlaid
+    (red, green: the thesis's colours), on the matplotlib axes ``ax``."""
     body = SynthesizedBody(robot)
     data = robot.pin.createData()
-    fig, ax = plt.subplots(figsize=(4.5, 6.5))
     for p, colour in zip(postures, ("tab:red", "tab:green")):
         q = body.configuration(p["transition_q"], robot.q_half_sitting)
         pin.forwardKinematics(robot.pin, data, q)
@@ -80,11 +96,5 @@ def plot_transition_postures(robot: RobotModel, postures: list[dict], path: Path
     ax.set_aspect("equal")
     ax.set_xlabel("x forward [m] (pelvis frame)")
     ax.set_ylabel("z up [m]")
-    ax.set_title("Posture at the switch to standing (Fig. 3.38)")
+    ax.set_title(title or "Posture at the switch to standing (Fig. 3.38)", fontsize=10)
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), fontsize=8)
-    fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
