@@ -111,6 +111,7 @@ def test_bring_up_commands_on_the_emulated_bus(capsys):
     assert main(["hw", "scan"]) == 0  # the emulated bus's mini-cheetah drives have no CAN timeout
     out = capsys.readouterr().out
     assert "answering: 32" in out and "stop_without_host: 0 of 32 joints" in out and "'head_2_joint']" in out
+    assert "enabled_because: emulated bus in a simulation" in out  # the bus config's acknowledgement
     assert main(["hw", "scan", "--hw", "dynamixel-emulated"]) == 0  # every servo's bus watchdog is armed
     out = capsys.readouterr().out
     assert "stop_without_host: 32 of 32 joints" in out and "hold_last_command_without_host: []" in out

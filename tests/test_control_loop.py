@@ -131,3 +131,26 @@ def test_sigterm_closes_the_hardware_and_exits_130(tmp_path):
     assert process.returncode == 130, err
     assert err.strip().splitlines()[-1] == "robot-ctrl: interrupted (SIGTERM)" and "Traceback" not in err
     assert not (tmp_path / "report.json").exists()  # no half-written report
+
+
+def test_the_pacers_record_stays_bounded_and_keeps_the_worst_tick():
+    """A run of hours must not grow the pacer's record: the latest ticks are kept for the median and
+    the 99th percentile, the count and the worst lateness over every tick."""
+    from robot_ctrl.control.pacer import LATENESS_WINDOW, Pacer
+
+    clock = {"t": 0.0, "oversleep": 0.002}
+
+    def sleep(s):  # the first sleep wakes 2 ms late, the others on time
+        clock["t"] += s + clock["oversleep"]
+        clock["oversleep"] = 0.0
+
+    pacer = Pacer(0.005, clock=lambda: clock["t"], sleep=sleep)
+    for _ in range(LATENESS_WINDOW + 10):
+        pacer.wait()
+        clock["t"] += 0.001  # 1 ms of work
+    clock["t"] += 0.01
+    pacer.wait()  # an overrun
+    report = pacer.report()
+    assert len(pacer.lateness) == LATENESS_WINDOW and report["ticks"] == LATENESS_WINDOW + 11
+    assert report["overruns"] == 1 and report["lateness_ms"]["median"] == 0.0
+    assert report["lateness_ms"]["max"] == pytest.approx(2.0)  # long out of the window, still the worst

@@ -199,12 +199,49 @@ def test_nan_and_out_of_limit_commands_never_reach_the_bus(talos, mit):
     sent = np.array([c.q for _, c in emulator.received])
     assert np.all(np.isfinite(sent))
     assert sent[:, 3].max() <= talos.upper[3] + 1e-3
-    assert np.abs(np.diff(sent[-6:, 3])).max() <= hw.limits.max_step + 1e-3  # rate limited
+    assert np.abs(np.diff(sent[-6:, 3])).max() <= hw.limits.step_limit[3] + 1e-3  # rate limited
     assert hw.interventions["position_step_limited"] >= 1 and hw.interventions["torque_clamped"] >= 1
     # The servo torque at the state the layer saw stays within the effort limit (+ quantization).
     last = emulator.received[-1][1]
     torque = last.kp * (last.q - before_last.q) + last.kd * (last.dq - before_last.dq) + last.tau_ff
     assert abs(torque[3]) <= talos.effort[3] + 5.0
+
+
+def test_rejected_commands_in_a_row_fault_into_damping(talos, mit):
+    """A controller whose commands stay non-finite for 20 ms (4 ticks at 200 Hz) is not held stiff on
+    its last good command: damping, FAULT latched. Fewer in a row are held over."""
+    hw, emulator, clock, state = mit
+    for _ in range(30):
+        state = tick(hw, clock, hold(talos, state))
+    nan = hold(talos, state, tau_ff=np.full(talos.nj, np.nan))
+    for bad in (3, 3):  # interrupted by a good command: no fault
+        for _ in range(bad):
+            tick(hw, clock, nan)
+        assert hw.state is LifecycleState.ACTIVE and emulator.received[-1][1].kp.max() > 0  # held
+        state = tick(hw, clock, hold(talos, state))
+    for _ in range(4):
+        tick(hw, clock, nan)
+    assert hw.state is LifecycleState.FAULT and hw.interventions["command_fault"] == 1
+    assert hw.interventions["rejected_command"] == 10 and np.all(emulator.received[-1][1].kp == 0)
+    with pytest.raises(LifecycleError):
+        hw.write(hold(talos, state))
+
+
+@pytest.mark.parametrize("sensor", ["base_angvel", "base_linacc", "base_quat_xyzw", "foot_wrench"])
+def test_a_non_finite_imu_or_force_reading_faults_into_damping(talos, mit, monkeypatch, sensor):
+    hw, emulator, clock, state = mit
+    for _ in range(30):
+        state = tick(hw, clock, hold(talos, state))
+    value = getattr(state, sensor)
+    assert value is not None  # the emulated bus has body sensors
+    if sensor == "foot_wrench":
+        bad = dataclasses.replace(state, foot_wrench={**value, "left": np.full(6, np.nan)})
+    else:
+        bad = dataclasses.replace(state, **{sensor: np.full(len(value), np.nan)})
+    monkeypatch.setattr(hw.backend, "read", lambda: bad)
+    hw.read()
+    assert hw.state is LifecycleState.FAULT and hw.interventions["bad_measurement"] == 1
+    assert np.all(emulator.received[-1][1].kp == 0)
 
 
 def test_missed_write_trips_the_watchdog_into_damping(talos, mit):
@@ -220,6 +257,40 @@ def test_missed_write_trips_the_watchdog_into_damping(talos, mit):
     np.testing.assert_allclose(damping.kd, talos.kd, rtol=0.01, atol=0.1)
     state = tick(hw, clock, hold(talos, state))  # the next write resumes with a soft start
     assert hw.mode == "normal" and np.all(emulator.received[-1][1].kp <= 0.06 * talos.kp + 3.0)
+
+
+def test_feedforward_torque_ramps_in_with_the_stiffness_after_damping(talos, mit):
+    hw, emulator, clock, state = mit
+    for _ in range(30):
+        state = tick(hw, clock, hold(talos, state))
+    clock.t += 2.5 * DT
+    hw.read()  # the watchdog: damping
+    assert hw.mode == "damping"
+    gravity = np.full(talos.nj, 5.0)  # [N·m]
+    tick(hw, clock, hold(talos, state, tau_ff=gravity))
+    ramp = DT / hw.limits.soft_start  # the first tick of the soft start
+    sent = emulator.received[-1][1]
+    assert np.all(sent.tau_ff <= gravity * ramp + 0.1)  # not 5 N·m at once (0.1: the 12-bit range's step)
+    for _ in range(30):
+        tick(hw, clock, hold(talos, state, tau_ff=gravity))
+    strong = talos.effort > 10.0  # the wrists' and grippers' servos cannot give 5 N·m
+    np.testing.assert_allclose(emulator.received[-1][1].tau_ff[strong], gravity[strong], atol=0.1)
+
+
+def test_a_measured_position_beyond_a_limit_is_flagged_once_per_excursion(talos, mit, monkeypatch):
+    hw, emulator, clock, state = mit
+    for _ in range(30):
+        state = tick(hw, clock, hold(talos, state))
+    knee = talos.joint_names.index("leg_left_4_joint")
+    inside = state
+    q = state.q.copy()
+    q[knee] = talos.upper[knee] + 0.05
+    beyond = dataclasses.replace(state, q=q)
+    for read, flagged in ((inside, 0), (beyond, 1), (beyond, 1), (inside, 1), (beyond, 2)):
+        monkeypatch.setattr(hw.backend, "read", lambda read=read: dataclasses.replace(read, t=clock.t))
+        tick(hw, clock, hold(talos, state))
+        assert hw.interventions["position_beyond_limit"] == flagged
+    assert hw.state is LifecycleState.ACTIVE and hw.mode == "normal"  # flagged, not acted on
 
 
 def test_stale_state_puts_the_servos_in_damping(talos):
@@ -315,6 +386,33 @@ def test_a_late_reply_is_dropped_not_read_as_the_next_ticks(talos, mit):
     assert abs(hw.read().q[0] - state.q[0]) < 1e-3  # the joint kept its last value, not the stale 1.0 rad
 
 
+def test_a_foreign_frame_shaped_like_a_reply_is_counted_not_read(talos, mit, monkeypatch):
+    """Another node's frame (id 0x123) whose bytes look like the hip's reply at 7 rad must not be
+    taken as the hip's state: replies come to the host's id."""
+    import can
+
+    from robot_ctrl.hw.mit_protocol import pack_reply
+
+    hw, emulator, clock, state = mit
+    for _ in range(10):
+        state = tick(hw, clock, hold(talos, state))
+    hip = talos.joint_names.index("leg_left_2_joint")
+    m = emulator.config.motors[hip]
+    reply = emulator._reply
+
+    def with_a_foreign_frame_first(i):
+        if i == hip:
+            data = pack_reply(m.id, 7.0, 0.0, 0.0, emulator.ranges[i], emulator.formats[i], 30.0, None)
+            emulator._buses[m.bus].send(can.Message(arbitration_id=0x123, data=data, is_extended_id=False))
+        reply(i)
+
+    monkeypatch.setattr(emulator, "_reply", with_a_foreign_frame_first)
+    for _ in range(5):
+        state = tick(hw, clock, hold(talos, state))
+        assert abs(state.q[hip] - emulator.plant.read().q[hip]) < 0.01  # the hip's own reply
+    assert hw.backend.foreign_frames == 5 and hw.report()["bus"]["foreign_frames"] == 5
+
+
 def test_a_bus_off_fails_the_write_into_a_hardware_fault(talos, mit, monkeypatch):
     import can
 
@@ -336,6 +434,25 @@ def test_close_sends_damping_then_disables_every_motor(talos, mit):
     hw.close()
     last = emulator.received[-1][1]
     assert np.all(last.kp == 0) and np.abs(last.tau_ff).max() < 0.1  # damping (zero within a 12-bit step)
+    assert not emulator.enabled.any()
+
+
+@pytest.mark.parametrize("stop", ["estop", "bad_measurement"])
+def test_close_after_an_estop_or_a_fault_disables_every_motor(talos, mit, monkeypatch, stop):
+    """An e-stop or a fault leaves the servos in damping, still enabled; closing must disable them
+    (a host that exits after a fault must not leave the drives powered)."""
+    hw, emulator, clock, state = mit
+    for _ in range(30):
+        state = tick(hw, clock, hold(talos, state))
+    if stop == "estop":
+        hw.estop()
+    else:
+        bad = dataclasses.replace(state, q=np.full(talos.nj, np.nan))
+        monkeypatch.setattr(hw.backend, "read", lambda: bad)
+        hw.read()
+    assert hw.state in (LifecycleState.ESTOP, LifecycleState.FAULT)
+    assert emulator.enabled.all() and np.all(emulator.received[-1][1].kp == 0)  # damping, still enabled
+    hw.close()
     assert not emulator.enabled.any()
 
 
@@ -613,27 +730,58 @@ def test_dynamixel_hardware_errors_gain_range_and_a_soft_torque_on(talos):
         with pytest.raises(HardwareFault, match="leg_left_4_joint: hardware error \\(overheating\\)"):
             for _ in range(ERROR_CHECK_TICKS):
                 state = tick(hw, clock, hold(talos, state))
-        assert hw.state is LifecycleState.FAULT
+        assert hw.state is LifecycleState.FAULT and emulator.torque_enable.sum() == talos.nj - 1  # the rest damp
+        hw.close()
+        assert not emulator.torque_enable.any()  # closing after the fault disabled every servo
     finally:
         hw.close()
         emulator.close()
 
 
-def test_an_expired_dynamixel_bus_watchdog_fails_the_run(talos):
-    """A host that stalls past the servos' bus watchdog (100 ms) leaves them ignoring goals: the
-    next status read says so instead of the robot silently going limp."""
-    from robot_ctrl.hw.dynamixel_backend import ERROR_CHECK_TICKS
-
+def test_dynamixel_servos_silent_for_more_reads_than_allowed_are_a_fault(talos, monkeypatch):
+    """A failed Sync Read holds the last values (a stale state); more than ``max_missed_replies`` in
+    a row is a fault in damping, naming the port, not a robot held stale for good."""
     hw, emulator, clock = configured_dynamixel(talos)
     try:
         hw.activate()
         state = hw.read()
         for _ in range(5):
             state = tick(hw, clock, hold(talos, state))
+        port = hw.backend.ports[0]
+        monkeypatch.setattr(port, "read_present", lambda: None)
+        for _ in range(hw.backend.config.max_missed_replies):
+            tick(hw, clock, hold(talos, state))
+        assert hw.state is LifecycleState.ACTIVE
+        with pytest.raises(HardwareFault, match=f"no status from the servos on {port.device}"):
+            tick(hw, clock, hold(talos, state))
+        assert hw.state is LifecycleState.FAULT and hw.interventions["backend_fault"] == 1
+    finally:
+        hw.close()
+        emulator.close()
+
+
+def test_an_expired_dynamixel_bus_watchdog_fails_the_run(talos):
+    """A host that stalls past the servos' bus watchdog (100 ms) leaves them stopped where they
+    were, torque on, ignoring goals (the X-series e-manual): the next status read says so instead
+    of the robot silently holding a stale posture."""
+    from robot_ctrl.hw.dynamixel_backend import ERROR_CHECK_TICKS
+
+    hw, emulator, clock = configured_dynamixel(talos)
+    try:
+        hw.activate()
+        state = hw.read()
+        for _ in range(30):
+            state = tick(hw, clock, hold(talos, state))
+        stopped = state.q.copy()
         threading.Event().wait(0.3)  # the host stalls (the layer's clock is held: only the servos notice)
+        elbow = talos.joint_names.index("arm_left_4_joint")
+        moved = stopped.copy()
+        moved[elbow] -= 0.2
         with pytest.raises(HardwareFault, match="bus watchdog expired"):
             for _ in range(ERROR_CHECK_TICKS):
-                state = tick(hw, clock, hold(talos, state))
+                state = tick(hw, clock, hold(talos, state, q=moved))
+                applied = emulator.received[-1][1]
+                assert applied.kp[elbow] > 0 and abs(applied.q[elbow] - stopped[elbow]) < 0.01  # held, stiff
     finally:
         hw.close()
         emulator.close()
@@ -661,6 +809,25 @@ def test_damiao_drives_take_a_can_timeout_and_disable_themselves_when_the_host_s
     finally:
         hw.close()
         emulator.close()
+
+
+def test_drives_without_a_command_timeout_need_a_stated_acknowledgement(talos, tmp_path, capsys):
+    """A drive with no command timeout of its own holds its last stiff command when the host dies:
+    a bus config with such drives is refused unless it says why they may be enabled."""
+    text = load_bus_config("talos_mit_can", talos.joint_names).path.read_text()
+    bare = tmp_path / "no_ack.yaml"
+    bare.write_text("\n".join(line for line in text.splitlines() if not line.startswith("without_drive_timeout")))
+    config = load_bus_config(bare, talos.joint_names)
+    with pytest.raises(ConfigError, match="32 drives have no command timeout of their own"):
+        MitCanBackend(config, talos.kd)
+    assert main(["hw", "stand", "--hw", "mit-can-emulated", "--bus-config", str(bare)]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "without_drive_timeout" in err
+    bare.write_text(text.replace('without_drive_timeout: "emulated', 'without_drive_timeout: "yes"\n#'))
+    with pytest.raises(ConfigError, match="without_drive_timeout must say, in a few words, why"):
+        load_bus_config(bare, talos.joint_names)
+    damiao = dataclasses.replace(config, models={k: dict(v, reply="damiao") for k, v in config.models.items()})
+    assert MitCanBackend(damiao, talos.kd).drive_timeout_joints == tuple(talos.joint_names)  # no acknowledgement needed
 
 
 def test_a_drive_that_does_not_confirm_its_timeout_fails_the_configuration(talos):

@@ -97,7 +97,7 @@ def test_random_and_adversarial_commands_and_measurements_stay_safe(talos, limit
     measured states (beyond the limits, at high velocity, some NaN, some not numbers)."""
     rng = np.random.default_rng(7)
     hw, backend = layer(talos, limits)
-    clock, n, checked = hw.clock, talos.nj, 0
+    clock, n, checked, command_faults = hw.clock, talos.nj, 0, 0
     for k in range(3000):
         clock.t += DT
         q_meas = rng.uniform(limits.lower - 0.3, limits.upper + 0.3)
@@ -111,8 +111,10 @@ def test_random_and_adversarial_commands_and_measurements_stay_safe(talos, limit
             q_meas = q_meas + 1j
         backend.measured = JointState(t=k * DT, q=q_meas, dq=dq_meas, tau=np.zeros(n))
         hw.read()
-        if hw.state is not LifecycleState.ACTIVE:
-            assert roll < 0.04 and hw.mode == "damping" and backend.commands()[-1].kp.max() == 0  # latched, damping
+        if hw.state is not LifecycleState.ACTIVE:  # a bad measurement, or rejected commands 20 ms in a row
+            assert roll < 0.04 or hw.interventions["command_fault"] > command_faults
+            assert hw.mode == "damping" and backend.commands()[-1].kp.max() == 0  # latched, damping
+            command_faults = hw.interventions["command_fault"]
             with pytest.raises(LifecycleError):
                 hw.write(hold(talos, q_meas))
             hw.reset()

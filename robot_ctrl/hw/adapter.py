@@ -5,7 +5,7 @@ Lifecycle (after ros2_control)::
     UNCONFIGURED --configure--> INACTIVE --activate--> ACTIVE --deactivate--> INACTIVE
     any state --estop--> ESTOP (latched)        a backend failure --> FAULT
     ESTOP or FAULT --reset--> INACTIVE (explicit; activate again to move)
-    any state --close--> closed (no further calls)
+    any state --close--> closed (no further calls; from ESTOP or FAULT the motors are disabled first)
 
 ``read()`` works once configured; ``write()`` only while ACTIVE. Commands are validated here,
 before a backend sees them, so a NaN or a malformed array never reaches an actuator.
@@ -13,6 +13,7 @@ before a backend sees them, so a NaN or a malformed array never reaches an actua
 
 from __future__ import annotations
 
+import logging
 from abc import ABC, abstractmethod
 
 import numpy as np
@@ -20,6 +21,7 @@ import numpy as np
 from robot_ctrl.hw.types import JointCommand, JointState, LifecycleState
 
 S = LifecycleState
+logger = logging.getLogger("robot_ctrl.hw")
 
 
 class LifecycleError(RuntimeError):
@@ -37,11 +39,12 @@ class HardwareAdapter(ABC):
         self._state = S.UNCONFIGURED
         self._closed = False
         # Bus statistics (they stay zero where there is no bus): replies missed in all, per motor in a
-        # row, replies that came after their tick's wait, error frames.
+        # row, replies that came after their tick's wait, error frames, frames of other senders.
         self.missing_replies = 0
         self.missed = np.zeros(nj, dtype=int)
         self.late_replies = 0
         self.error_frames = 0
+        self.foreign_frames = 0
 
     @property
     def state(self) -> LifecycleState:
@@ -51,6 +54,11 @@ class HardwareAdapter(ABC):
     def drive_timeout_joints(self) -> tuple[str, ...]:
         """Joints whose drive stops by itself when the host stops sending (none by default)."""
         return ()
+
+    @property
+    def without_drive_timeout(self) -> str | None:
+        """Why the drives without a timeout of their own may be enabled, as the bus config states it."""
+        return None
 
     def _require(self, call: str, *allowed: LifecycleState) -> None:
         if self._closed:
@@ -97,7 +105,16 @@ class HardwareAdapter(ABC):
         self._state = S.INACTIVE
 
     def close(self) -> None:
-        if not self._closed:
+        """Release the backend. After an e-stop or a fault, which left the servos in damping, every
+        motor is disabled first (best effort: a bus that fails then is logged, and closed anyway)."""
+        if self._closed:
+            return
+        try:
+            if self._state in (S.ESTOP, S.FAULT):
+                self._on_disable()
+        except Exception:
+            logger.exception("close: disabling the motors after %s failed", self._state.value)
+        finally:
             self._on_close()
             self._closed = True
 
@@ -132,6 +149,10 @@ class HardwareAdapter(ABC):
 
     def _on_reset(self) -> None:
         pass
+
+    def _on_disable(self) -> None:
+        """Torque off on every motor, whatever the lifecycle state (:meth:`close` after an e-stop or
+        a fault). A simulation has nothing to disable."""
 
     def _on_close(self) -> None:
         pass

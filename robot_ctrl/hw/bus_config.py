@@ -17,6 +17,8 @@ entry per joint of the robot::
     drive_timeout_s: 0.1                  # mit_can: drives with a CAN timeout (Damiao) disable themselves
                                           # after this long without a command
     body_sensors: my_lab.sensors:open     # the IMU and foot F/T driver, module:function (hw/body_sensors.py)
+    without_drive_timeout: "why"          # mit_can: drives with no command timeout of their own (mit6,
+                                          # cubemars) are enabled only with this acknowledgement stated
 
 A mit_can model may name its reply format, ``reply: mit6`` (default), ``cubemars`` or ``damiao``
 (``mit_protocol``); the motors of one bus share one format, and Damiao ids are 1..15.
@@ -70,6 +72,9 @@ class BusConfig:
     max_missed_replies: int = 3  # replies a motor may miss in a row (its last values held) before a fault
     drive_timeout: float = 0.1  # [s] set on drives that have a CAN timeout (mit_can, Damiao)
     body_sensors: str | None = None  # "module:function" opening the IMU and foot F/T driver (hw/body_sensors.py)
+    #: Why motors without a drive-side command timeout may be enabled (None: they may not). Such a
+    #: drive holds its last command, stiff, when the host dies.
+    without_drive_timeout: str | None = None
 
     def reply_format(self, motor: MotorMap) -> str:
         """The reply format of ``motor``'s model (mit_can)."""
@@ -160,6 +165,10 @@ def load_bus_config(name_or_path: str | Path, joint_names: tuple[str, ...]) -> B
     _require(sensors is None or (isinstance(sensors, str) and re.fullmatch(r"[A-Za-z_][\w.]*:[A-Za-z_]\w*", sensors)),
              f"body_sensors = {sensors!r} must be module:function (a Python module on the path and its function)",
              path)
+    acknowledged = data.get("without_drive_timeout")
+    _require(acknowledged is None or (isinstance(acknowledged, str) and len(acknowledged.split()) >= 3),
+             "without_drive_timeout must say, in a few words, why drives without a command timeout may be enabled",
+             path)
     joints = data.get("joints") or {}
     _require(isinstance(joints, dict), "joints must map joint names to motors", path)
     missing = [j for j in joint_names if j not in joints]
@@ -190,7 +199,7 @@ def load_bus_config(name_or_path: str | Path, joint_names: tuple[str, ...]) -> B
         _require(isinstance(gear, (int, float)) and gear > 0, f"joints.{joint}.gear_ratio must be > 0", path)
         motors.append(MotorMap(joint, bus, motor_id, model, int(direction), float(zero), float(gear)))
     config = BusConfig(backend, buses, models, tuple(motors), path, float(timeout), missed, float(drive_timeout),
-                       sensors)
+                       sensors, acknowledged)
     if backend == "mit_can":
         formats: dict[str, tuple[str, str]] = {}
         for m in motors:

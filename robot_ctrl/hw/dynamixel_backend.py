@@ -29,8 +29,9 @@ bus YAML (``units_per_rev``, ``velocity_unit`` [rad/s], ``current_unit`` [A], ``
 calibrated, the control table's gains are not in SI units.
 
 Body sensors (base pose, IMU, foot forces) come from ``body_sensors`` as for the CAN backend. A
-failed Sync Read keeps the previous values and timestamp (``missing_replies`` counts it): the
-safety layer then sees a stale state.
+failed Sync Read keeps the previous values and timestamp (``missing_replies`` counts it); more than
+the config's ``max_missed_replies`` in a row fail the read, naming the port (a fault, as a silent
+MIT motor).
 """
 
 from __future__ import annotations
@@ -84,6 +85,7 @@ class DynamixelBackend(HardwareAdapter):
         self._body: JointState | None = None
         self._open = False
         self._ticks = 0
+        self._missed_reads = 0  # Sync Reads in a row that a servo did not answer
 
     @property
     def drive_timeout_joints(self) -> tuple[str, ...]:
@@ -129,13 +131,16 @@ class DynamixelBackend(HardwareAdapter):
             port = self._port_of[m.bus]
             port.write(m, dxl.BUS_WATCHDOG, 0, 1)  # clears a tripped watchdog
             port.write(m, dxl.TORQUE_ENABLE, 1, 1)
-            port.set(m, dxl.BUS_WATCHDOG, self.watchdog_units, 1)  # read back: a dead host leaves it limp
+            port.set(m, dxl.BUS_WATCHDOG, self.watchdog_units, 1)  # read back: a dead host leaves it stopped in place
         self._sync_read()
         self._ticks = 0
 
     def _on_deactivate(self) -> None:
         for m in self.config.motors:
             self._port_of[m.bus].write(m, dxl.TORQUE_ENABLE, 0, 1)
+
+    def _on_disable(self) -> None:
+        self._on_deactivate()
 
     def _on_estop(self) -> None:
         if not self._open:
@@ -202,7 +207,12 @@ class DynamixelBackend(HardwareAdapter):
         answers = self._each_port(lambda port: port.read_present())
         if any(a is None for a in answers):
             self.missing_replies += 1
+            self._missed_reads += 1
+            if self._missed_reads > self.config.max_missed_replies:
+                silent = ", ".join(f"{p.device} ({p.name})" for p, a in zip(self.ports, answers) if a is None)
+                raise RuntimeError(f"no status from the servos on {silent} for {self._missed_reads} reads in a row")
             return
+        self._missed_reads = 0
         for port, registers in zip(self.ports, answers):
             i = port.index
             current, velocity, position, temperature = registers.T

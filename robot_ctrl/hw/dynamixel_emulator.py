@@ -22,8 +22,9 @@ waits for them (lock-step across ports, at most ``PENDING_WAIT``): servo i follo
 kd_unit (joint side through the gear ratio); in current-based position mode that torque is bounded
 by Goal Current at the measured state (``bound_servo_torque``); the PWM output of the other modes is
 not modelled. Torque disabled: limp. A Bus Watchdog that expires
-(no packet for its time, wall clock) stops the servo: damping only (kp = 0), the register reads
-−1 until the host writes 0, as on X-series servos. ``temperature`` (°C, per servo) is what Present
+(no packet for its time, wall clock) stops the servo where it is, torque on (the goal becomes the
+present position, as the X-series e-manual says: "the DYNAMIXEL will stop"); the Goal Position is
+read-only (a write is refused with a range error) and the register reads −1 until the host writes 0. ``temperature`` (°C, per servo) is what Present
 Temperature reports; tests raise it to exercise the safety layer. ``hardware_error`` (per servo)
 is its Hardware Error Status: a servo with one set is limp and refuses torque, as after an
 overload shutdown. Gains beyond the register range (``GAIN_MAX``) are ignored, as a servo ignores
@@ -145,6 +146,7 @@ class DynamixelEmulator:
         with self._lock:
             expired = (self.watchdog > 0) & (silent_ms > 20.0 * self.watchdog)
             self.watchdog[expired] = -1
+            self.goal[expired] = np.round(self._motor_position()[expired] / self.units.position[expired])
 
     def _handle(self, port: str, servo: int, instruction: int, params: bytes) -> bytes:
         """Answer one packet on ``port`` (called with the lock held)."""
@@ -214,6 +216,8 @@ class DynamixelEmulator:
         elif address == dxl.BUS_WATCHDOG:
             self.watchdog[i] = dxl.to_signed(data[0], 1)
         elif address == dxl.GOAL_POSITION and len(data) == 4:
+            if self.watchdog[i] < 0:  # stopped by its bus watchdog: the goal is read-only
+                return dxl.DATA_RANGE_ERROR
             self.goal[i] = dxl.to_signed(int.from_bytes(data, "little"), 4)
         return 0
 
@@ -248,10 +252,9 @@ class DynamixelEmulator:
         c = self.config
         self.torque_enable[self.hardware_error != 0] = 0  # a hardware error shuts the torque off
         on = self.torque_enable.astype(float)
-        stiff = on * (self.watchdog >= 0)  # an expired watchdog leaves damping only
         goal = self.goal * self.units.position
         q_des, zero = c.direction * (goal - c.zero) / c.gear, np.zeros(self.nj)
-        kp = stiff * self.gains[:, 2] * self.units.kp * c.gear**2
+        kp = on * self.gains[:, 2] * self.units.kp * c.gear**2
         kd = on * self.gains[:, 0] * self.units.kd * c.gear**2
         current_mode = self.operating_mode == dxl.CURRENT_BASED_POSITION
         limit = np.where(current_mode, self.goal_current * self.units.torque * c.gear, np.inf)  # joint side [N·m]

@@ -3,7 +3,8 @@
 Lifecycle: ``configure`` opens one python-can bus per bus in the YAML and sets the drive-side
 timeout where the drive has one (Damiao: register TIMEOUT written and read back, so a dead host
 process leaves the motor disabled after the bus config's ``drive_timeout_s``; a drive that does
-not confirm it fails the configuration); ``activate`` sends the
+not confirm it fails the configuration; a config with drives that have no such timeout is refused
+unless it states why they may be enabled, ``without_drive_timeout``); ``activate`` sends the
 enter-motor-mode frame to every motor and takes their replies as the first state; ``write`` sends
 one command frame per motor (joint side converted to motor side, see ``bus_config``); ``read``
 collects the replies that command caused (each motor answers every frame it receives) and
@@ -41,22 +42,24 @@ import numpy as np
 from robot_ctrl.hw.adapter import HardwareAdapter
 from robot_ctrl.hw.bus_config import BusConfig
 from robot_ctrl.hw.mit_protocol import (
-                                        DISABLE,
-                                        ENABLE,
-                                        PARAM_CAN_ID,
-                                        PARAM_READ,
-                                        PARAM_WRITE,
-                                        SET_ZERO,
-                                        TIMEOUT_REGISTER,
-                                        TIMEOUT_UNIT,
-                                        MitRanges,
-                                        pack_command,
-                                        param_frame,
-                                        reply_motor_id,
-                                        unpack_param,
-                                        unpack_reply,
+    DISABLE,
+    ENABLE,
+    HOST_ID,
+    PARAM_CAN_ID,
+    PARAM_READ,
+    PARAM_WRITE,
+    SET_ZERO,
+    TIMEOUT_REGISTER,
+    TIMEOUT_UNIT,
+    MitRanges,
+    pack_command,
+    param_frame,
+    reply_motor_id,
+    unpack_param,
+    unpack_reply,
 )
 from robot_ctrl.hw.types import JointCommand, JointState
+from robot_ctrl.robot.config import ConfigError
 
 #: [s] Replies follow each other back to back once they come (0.13 ms per frame at 1 Mbit/s): after
 #: this long without one, the rest of the bus's motors missed theirs.
@@ -80,6 +83,12 @@ class MitCanBackend(HardwareAdapter):
         self.formats = [config.reply_format(m) for m in config.motors]
         self._bus_format = {m.bus: f for m, f in zip(config.motors, self.formats)}  # one format per bus
         self._index = {(m.bus, m.id): i for i, m in enumerate(config.motors)}
+        holding = [m.joint for m, f in zip(config.motors, self.formats) if f != "damiao"]
+        if holding and config.without_drive_timeout is None:
+            raise ConfigError(f"{config.path.name}: {len(holding)} drives have no command timeout of their own "
+                              f"({holding[0]}{', ...' if len(holding) > 1 else ''}): a host that dies leaves them on "
+                              "their last stiff command. Use drives with one (reply: damiao, drive_timeout_s), or "
+                              "state why they may be enabled: without_drive_timeout: \"...\"")
         self._buses: dict[str, can.BusABC] = {}
         self._p = np.zeros(self.nj)  # motor side
         self._v = np.zeros(self.nj)
@@ -101,6 +110,10 @@ class MitCanBackend(HardwareAdapter):
     def drive_timeout_joints(self) -> tuple[str, ...]:
         """Joints whose drive disables itself when the host stops sending (Damiao: ``drive_timeout_s``)."""
         return tuple(m.joint for m, f in zip(self.config.motors, self.formats) if f == "damiao")
+
+    @property
+    def without_drive_timeout(self) -> str | None:
+        return self.config.without_drive_timeout
 
     def _set_drive_timeouts(self) -> None:
         """Write the Damiao drives' TIMEOUT register and read it back; fail naming the drives that
@@ -160,6 +173,9 @@ class MitCanBackend(HardwareAdapter):
         self._broadcast(DISABLE)
         self._collect(gap=None)
         self._faults.clear()
+
+    def _on_disable(self) -> None:
+        self._on_deactivate()
 
     def _on_estop(self) -> None:
         if not self._buses:
@@ -255,6 +271,9 @@ class MitCanBackend(HardwareAdapter):
                 bus_deadline = deadline if gap is None else min(deadline, self.clock() + gap)
                 if msg.is_error_frame:
                     self.error_frames += 1
+                    continue
+                if msg.arbitration_id != HOST_ID or msg.is_extended_id:  # not a drive's reply to us
+                    self.foreign_frames += 1
                     continue
                 data = bytes(msg.data)
                 fmt = self._bus_format.get(name, "mit6")

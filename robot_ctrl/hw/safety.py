@@ -5,14 +5,17 @@ What it does with each ``write`` (in this order), each counted in ``intervention
 
 - ``rejected_command``: a command that is not finite real numbers of the right shape is refused;
   the last safe command is sent again instead (damping if there is none). ``write`` does not raise,
-  so a loop that produced one bad sample keeps a held robot; the counter tells.
+  so a loop that produced one bad sample keeps a held robot; the counter tells. Rejected commands
+  in a row for ``rejected_fault_time`` (``command_fault``): a controller that has lost its numbers
+  is not held stiff on its last good one, the layer sends damping and latches FAULT.
 - ``gain_clamped``: kp and kd above ``kp_max`` / ``kd_max`` (the robot config's ``max_gain_ratio``
   times the servo gains) are clamped.
 - ``position_clamped``: position targets clamped into [lower, upper] (the config's limits).
-- ``position_step_limited``: the target moves at most ``max_step`` rad per tick from the last one sent.
+- ``position_step_limited``: the target moves at most ``step_limit`` per tick from the last one sent
+  (how far the joint moves in a tick at its velocity limit).
 - ``velocity_clamped``: velocity targets clamped to ± the velocity limit.
-- soft start: kp ramps linearly from 0 to the commanded value over ``soft_start`` s of ticks after
-  activation and after any damping episode (kd is never ramped).
+- soft start: kp and τ_ff ramp linearly from 0 to the commanded values over ``soft_start`` s of
+  ticks after activation and after any damping episode (kd is never ramped).
 - ``torque_clamped``, last, on every command the layer sends (damping included): the servo torque
   ``kp (q − q_meas) + kd (dq − dq_meas) + τ_ff`` at the last measured state is bounded to ± effort
   (``servo_torque.bound_servo_torque``: τ_ff clipped, the target moved within the position limits,
@@ -20,14 +23,17 @@ What it does with each ``write`` (in this order), each counted in ``intervention
 
 What it watches:
 
-- ``bad_measurement``: a state whose time, q, dq or temperature is not finite real numbers of the
-  right shape → damping from the last good state, latched as FAULT until ``reset()`` (never a
-  stiff hold of the last command).
+- ``bad_measurement``: a state whose time, q, dq, temperature, IMU or foot force/torque reading is
+  not finite real numbers of the right shape → damping from the last good state, latched as FAULT
+  until ``reset()`` (never a stiff hold of the last command).
 - ``watchdog``: no ``write`` for ``watchdog_periods`` control periods (checked on every read and by
   the watchdog thread), armed at ``activate`` → damping mode (kp = 0, τ_ff = 0, kd = ``kd_damping``).
   The next valid write resumes with a soft start.
 - ``stale_state``: the backend's state has not advanced for ``stale_periods`` control periods →
   damping mode; writes are answered with damping until a fresh state arrives.
+- ``position_beyond_limit``: a measured joint position more than ``limit_tolerance`` beyond its
+  position limit (an encoder offset, a joint pushed past its stop), counted when it goes beyond;
+  flagged only, as ros2_control's limits report it: the commands are already held inside.
 - temperature (where the backend reports it): ``temperature_warn`` logs once per joint;
   above ``temperature_derate`` kp and the torque limit of that joint scale down linearly, to 20 % at
   ``temperature_fault``; at ``temperature_fault`` the layer latches a FAULT in damping mode until
@@ -39,7 +45,8 @@ What it watches:
   ``HardwareFault`` naming what failed.
 
 ``close()`` (also on Ctrl-C and SIGTERM through the command line) sends damping, then deactivates
-the backend (motors disabled), then closes it: a drive that misses the disable is left soft.
+the backend (motors disabled), then closes it: a drive that misses the disable is left soft. After an
+e-stop or a fault the servos are already in damping; closing then disables them all the same.
 
 Threads: the layer's lock guards its own bookkeeping and is never held across a call into the
 backend, so ``estop()`` and the watchdog act while a write is in flight. A write that was in flight
@@ -55,15 +62,14 @@ import logging
 import threading
 import time
 from collections import Counter
-from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
 
 from robot_ctrl.hw.adapter import HardwareAdapter, HardwareFault
+from robot_ctrl.hw.safety_limits import SafetyLimits
 from robot_ctrl.hw.servo_torque import bound_servo_torque
 from robot_ctrl.hw.types import CommandError, JointCommand, JointState, LifecycleState
-from robot_ctrl.robot.model import RobotModel
 
 S = LifecycleState
 logger = logging.getLogger("robot_ctrl.hw.safety")
@@ -78,62 +84,9 @@ class SafetyMode(str, enum.Enum):
     DAMPING = "damping"
 
 
-@dataclass(frozen=True)
-class SafetyLimits:
-    lower: np.ndarray  # (nj,) position limits [rad]
-    upper: np.ndarray
-    velocity: np.ndarray  # (nj,) [rad/s]
-    effort: np.ndarray  # (nj,) [N·m]
-    kd_damping: np.ndarray  # (nj,) damping-mode gains [N·m·s/rad]
-    kp_max: np.ndarray  # (nj,) the largest stiffness a command may carry [N·m/rad]
-    kd_max: np.ndarray  # (nj,) the largest damping a command may carry [N·m·s/rad]
-    control_dt: float = 0.005  # [s]
-    max_step: float = 0.05  # [rad] per tick
-    soft_start: float = 0.5  # [s]
-    watchdog_periods: float = 2.0
-    stale_periods: float = 4.0
-    temperature_warn: float = 60.0  # [°C]
-    temperature_derate: float = 70.0
-    temperature_fault: float = 80.0
-
-    def __post_init__(self):
-        n = len(self.lower)
-        for name in ("upper", "velocity", "effort", "kd_damping", "kp_max", "kd_max"):
-            value = np.asarray(getattr(self, name))
-            if value.shape != (n,) or not np.all(np.isfinite(value)) or np.any(value < 0):
-                raise ValueError(f"SafetyLimits.{name} must be {n} finite values >= 0")
-        if np.any(np.asarray(self.lower) >= np.asarray(self.upper)):
-            raise ValueError("SafetyLimits.lower must be below upper for every joint")
-        checks = {"control_dt": (1e-4, 0.1), "max_step": (1e-4, 1.0), "soft_start": (0.0, 10.0),
-                  "watchdog_periods": (1.0, 100.0), "stale_periods": (1.0, 1000.0)}
-        for name, (lo, hi) in checks.items():
-            value = getattr(self, name)
-            if not (np.isfinite(value) and lo <= value <= hi):
-                raise ValueError(f"SafetyLimits.{name} = {value} is outside the allowed range [{lo}, {hi}]")
-        if not self.temperature_warn <= self.temperature_derate < self.temperature_fault:
-            raise ValueError("SafetyLimits temperatures must satisfy warn <= derate < fault")
-
-    @classmethod
-    def for_simulation(cls, robot: RobotModel, control_dt: float = 0.005) -> "SafetyLimits":
-        """The limits in front of a simulated robot: those of :meth:`from_robot` without the soft
-        start (the simulation starts with the servos holding the start posture), so that a run
-        within the limits is the same with or without the layer."""
-        return cls.from_robot(robot, control_dt, soft_start=0.0)
-
-    @classmethod
-    def from_robot(cls, robot: RobotModel, control_dt: float = 0.005, **overrides) -> "SafetyLimits":
-        """Limits from the robot model: URDF position limits (already inside the config's margins
-        for the IK), velocity and effort limits, the default servo damping for damping mode, and
-        gains capped at the config's ``max_gain_ratio`` times the servo gains."""
-        ratio = robot.config.max_gain_ratio
-        return cls(lower=robot.lower.copy(), upper=robot.upper.copy(), velocity=robot.velocity_limit.copy(),
-                   effort=robot.effort.copy(), kd_damping=robot.kd.copy(), kp_max=ratio * robot.kp,
-                   kd_max=ratio * robot.kd, control_dt=control_dt, **overrides)
-
-
 #: Every kind of intervention the layer counts (``SafetyLayer.interventions``), in a fixed order.
 INTERVENTIONS = ("estop", "bad_measurement", "backend_fault", "watchdog", "stale_state", "rejected_command",
-                 "temperature_warn", "temperature_derate", "temperature_fault", "gain_clamped", "position_clamped",
+                 "command_fault", "position_beyond_limit", "temperature_warn", "temperature_derate", "temperature_fault", "gain_clamped", "position_clamped",
                  "position_step_limited", "velocity_clamped", "torque_clamped")
 
 
@@ -156,12 +109,15 @@ class SafetyLayer(HardwareAdapter):
         self._epoch = 0  # counts entries into damping and e-stop (a write in flight then re-sends)
         self._pending: JointCommand | None = None  # a damping command decided under the lock, to send
         self._last_sent: JointCommand | None = None
+        self._last_target: np.ndarray | None = None  # the last position target before the torque bound
         self._last_good: JointState | None = None  # the last measured state that passed the checks
         self._last_write = None  # clock time of the last write, or of activation (None: disarmed)
         self._fresh_at = None  # clock time of the last state that advanced
         self._ticks = 0  # writes since the soft start began
+        self._rejected = 0  # commands rejected in a row
         self._derate = np.ones(backend.nj)
         self._warned = np.zeros(backend.nj, dtype=bool)
+        self._beyond = np.zeros(backend.nj, dtype=bool)  # measured beyond a position limit
         self._watchdog: threading.Thread | None = None
         self._stop_watchdog = threading.Event()
 
@@ -206,7 +162,7 @@ class SafetyLayer(HardwareAdapter):
     def _on_close(self) -> None:
         self.stop_watchdog()
         try:
-            if self._state is S.ACTIVE and self.backend.state is S.ACTIVE:
+            if self.backend.state is S.ACTIVE:  # also after a fault of this layer: the servos are in damping
                 with self._lock:
                     self.mode = SafetyMode.OFF
                     damping = self._damping_command()
@@ -215,7 +171,7 @@ class SafetyLayer(HardwareAdapter):
         except Exception:
             logger.exception("safety: damping and disable on close failed")
         finally:
-            self.backend.close()
+            self.backend.close()  # from ESTOP or FAULT it disables the motors itself
         if self.interventions:
             logger.info("safety interventions: %s", dict(self.interventions))
 
@@ -310,7 +266,7 @@ class SafetyLayer(HardwareAdapter):
         b = self.backend
         return {"interventions": dict(self.interventions), "mode": self.mode.value, "state": self.state.value,
                 "bus": {"missing_replies": b.missing_replies, "late_replies": b.late_replies,
-                        "error_frames": b.error_frames}}
+                        "error_frames": b.error_frames, "foreign_frames": b.foreign_frames}}
 
     # Internals (called with the lock held, except the senders) -------------------------------------
     def _intervene(self, kind: str, detail: str) -> None:
@@ -320,7 +276,9 @@ class SafetyLayer(HardwareAdapter):
 
     def _begin_soft_start(self) -> None:
         self._ticks = 0
+        self._rejected = 0
         self._last_sent = None
+        self._last_target = None
 
     def _check_fresh(self, state: JointState) -> None:
         self._latest_t = state.t
@@ -333,6 +291,12 @@ class SafetyLayer(HardwareAdapter):
                 self._intervene("stale_state", f"no new state for {now - self._fresh_at:.3f} s")
                 self._enter_damping(state)
         self._last_good = state
+        lim = self.limits
+        beyond = (state.q < lim.lower - lim.limit_tolerance) | (state.q > lim.upper + lim.limit_tolerance)
+        for i in np.flatnonzero(beyond & ~self._beyond):
+            self._intervene("position_beyond_limit", f"joint {i} measured at {state.q[i]:.3f} rad, limits "
+                                                     f"[{lim.lower[i]:.3f}, {lim.upper[i]:.3f}]")
+        self._beyond = beyond
         if state.temperature is not None:
             self._check_temperature(np.asarray(state.temperature, dtype=float), state)
 
@@ -341,7 +305,15 @@ class SafetyLayer(HardwareAdapter):
             command.validate(self.nj)
         except CommandError as exc:
             self._intervene("rejected_command", str(exc))
+            self._rejected += 1
+            if self._rejected * self.limits.control_dt >= self.limits.rejected_fault_time - 1e-12:
+                self._intervene("command_fault", f"{self._rejected} commands rejected in a row; damping, FAULT "
+                                                 "latched until reset()")
+                self._enter_damping(self._last_good)
+                self._state = S.FAULT
+                return self._last_sent
             return self._bounded(self._last_sent) if self._last_sent is not None else self._damping_command()
+        self._rejected = 0
         stale = (self._fresh_at is not None
                  and self._last_write - self._fresh_at > self.limits.stale_periods * self.limits.control_dt)
         if stale or self._last_good is None:
@@ -408,17 +380,20 @@ class SafetyLayer(HardwareAdapter):
         q = np.clip(cmd.q, lim.lower, lim.upper)
         if np.any(q != cmd.q):
             self._intervene("position_clamped", f"joints {np.flatnonzero(q != cmd.q).tolist()}")
-        reference = self._last_sent.q if self._last_sent is not None else state.q
-        stepped = reference + np.clip(q - reference, -lim.max_step, lim.max_step)
+        # From the last target as the controller's motion left it, not as the torque bound moved it
+        # towards the measured posture for one tick: the bound is no motion to limit.
+        reference = self._last_target if self._last_target is not None else state.q
+        step = lim.step_limit
+        stepped = reference + np.clip(q - reference, -step, step)
         if np.any(stepped != q):
             self._intervene("position_step_limited", f"joints {np.flatnonzero(stepped != q).tolist()}")
-        q = np.clip(stepped, lim.lower, lim.upper)
+        q = self._last_target = np.clip(stepped, lim.lower, lim.upper)
         dq = np.clip(cmd.dq, -lim.velocity, lim.velocity)
         if np.any(dq != cmd.dq):
             self._intervene("velocity_clamped", f"joints {np.flatnonzero(dq != cmd.dq).tolist()}")
         ramp = min(1.0, (self._ticks + 1) * lim.control_dt / lim.soft_start) if lim.soft_start > 0 else 1.0
         self._ticks += 1
-        return self._bounded(JointCommand(q=q, dq=dq, kp=kp * ramp * self._derate, kd=kd, tau_ff=cmd.tau_ff))
+        return self._bounded(JointCommand(q=q, dq=dq, kp=kp * ramp * self._derate, kd=kd, tau_ff=cmd.tau_ff * ramp))
 
     def _bounded(self, cmd: JointCommand) -> JointCommand:
         """``cmd`` with its torque at the last good measured state within ± the (derated) effort."""

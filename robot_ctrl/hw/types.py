@@ -69,10 +69,17 @@ class JointState:
 
     def problem(self, nj: int) -> str | None:
         """Why this sample cannot be trusted (time, joint positions, velocities or temperatures
-        that are not ``nj`` finite real numbers), or None."""
+        that are not ``nj`` finite real numbers; a body sensor's reading, where there is one, not
+        finite numbers of its shape), or None."""
         fields = {"t": (self.t, ()), "q": (self.q, (nj,)), "dq": (self.dq, (nj,))}
         if self.temperature is not None:
             fields["temperature"] = (self.temperature, (nj,))
+        for name, shape in (("base_pos", (3,)), ("base_quat_xyzw", (4,)), ("base_linvel", (3,)),
+                            ("base_angvel", (3,)), ("base_linacc", (3,))):
+            if getattr(self, name) is not None:
+                fields[name] = (getattr(self, name), shape)
+        for side, wrench in (self.foot_wrench or {}).items():
+            fields[f"foot_wrench[{side!r}]"] = (wrench, (6,))
         for name, (value, shape) in fields.items():
             array = np.asarray(value)
             if array.dtype.kind not in "fiu":

@@ -31,8 +31,10 @@ def scan(robot: RobotModel, hw: SafetyLayer) -> dict:
     hw.read()
     hw.deactivate()
     stopping = hw.backend.drive_timeout_joints
+    holding = [j for j in robot.joint_names if j not in stopping]
     return {"motors": hw.nj, "answering": hw.nj, "stop_without_host": f"{len(stopping)} of {hw.nj} joints",
-            "hold_last_command_without_host": [j for j in robot.joint_names if j not in stopping]}
+            "hold_last_command_without_host": holding,
+            **({"enabled_because": hw.backend.without_drive_timeout} if holding else {})}
 
 
 def read(robot: RobotModel, hw: SafetyLayer) -> list[dict]:
