@@ -205,8 +205,8 @@ class WalkReachCommander:
         second, and the next action (standing, the pull) must not begin before it has. Its blend into
         standing waits (rate 0) while the robot still steps (a stop can take a step more than the
         synthesis planned, when a landing missed its stop footstep), then while the standing pelvis
-        lags by more than ``STAND_READY_LAG`` (at most ``MAX_STAND_WAIT``; the lean integrates the
-        lag out meanwhile)."""
+        is more than ``STAND_READY_LAG`` short of where the stop must leave it (at most
+        ``MAX_STAND_WAIT``; the lean integrates the rest out meanwhile)."""
         self._waiting_for_pelvis = False
         if not self.position_feedback or self.output is None or not self._last_short or self.output.phase < np.pi:
             return 1.0
@@ -216,7 +216,8 @@ class WalkReachCommander:
                 self._stood_at = None
                 return 0.0
             self._stood_at = self.t if self._stood_at is None else self._stood_at
-            self._waiting_for_pelvis = lag > STAND_READY_LAG and self.t - self._stood_at < MAX_STAND_WAIT
+            short_of_stop = self.stopping_at - self.advance()  # where standing must begin, not where the synthesis is
+            self._waiting_for_pelvis = short_of_stop > STAND_READY_LAG and self.t - self._stood_at < MAX_STAND_WAIT
             if self._waiting_for_pelvis:  # the lean takes the lag out meanwhile (_lean)
                 return 0.0
         return float(np.clip(1.0 - lag / self._slowing_lag, MIN_SYNTHESIS_RATE, 1.0))
