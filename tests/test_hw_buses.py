@@ -560,7 +560,8 @@ def configured_dynamixel(talos, without_current_mode=(), ports=lambda config: co
     config = dataclasses.replace(config, buses={name: dict(port, device=emulator.port_names[name])
                                                 for name, port in config.buses.items()})
     clock = FakeClock()
-    hw = SafetyLayer(DynamixelBackend(config, talos.kd, body_sensors=emulator.body_state, effort=talos.effort),
+    hw = SafetyLayer(DynamixelBackend(config, talos.kd, body_sensors=emulator.body_state, effort=talos.effort,
+                                      velocity=talos.velocity_limit),
                      SafetyLimits.from_robot(talos, soft_start=0.05), clock=clock)
     try:
         hw.configure()
@@ -662,7 +663,7 @@ def test_temperature_derates_then_faults(talos):
         state = tick(hw, clock, hold(talos, state))
         kp = emulator.received[-1][1].kp
         assert kp[3] == pytest.approx(0.6 * talos.kp[3], rel=0.01) and kp[4] == pytest.approx(talos.kp[4], rel=0.01)
-        emulator.temperature[3] = 85.0
+        emulator.temperature[3] = 82.0  # past the layer's fault (80), below the servo's own limit (85)
         tick(hw, clock, hold(talos, state))
         hw.read()  # a Sync Write has no reply: this read's round trip orders it after the damping write
         assert hw.state is LifecycleState.FAULT and hw.interventions["temperature_fault"] == 1
@@ -755,6 +756,41 @@ def test_dynamixel_servos_silent_for_more_reads_than_allowed_are_a_fault(talos, 
         with pytest.raises(HardwareFault, match=f"no status from the servos on {port.device}"):
             tick(hw, clock, hold(talos, state))
         assert hw.state is LifecycleState.FAULT and hw.interventions["backend_fault"] == 1
+    finally:
+        hw.close()
+        emulator.close()
+
+
+def test_dynamixel_protective_limits_are_written_at_configure_and_act(talos):
+    """Shutdown, Temperature, PWM and Velocity Limit go to every servo at configure (read back);
+    a servo that reaches its temperature limit reports overheating and switches its torque off,
+    which the next status read turns into a fault naming it."""
+    from robot_ctrl.hw.dynamixel_backend import DEFAULT_TEMPERATURE_LIMIT, ERROR_CHECK_TICKS
+
+    hw, emulator, clock = configured_dynamixel(talos)
+    try:
+        p = emulator.protection
+        assert np.all(p[dxl.SHUTDOWN] == 0x34) and np.all(p[dxl.TEMPERATURE_LIMIT] == DEFAULT_TEMPERATURE_LIMIT)
+        assert np.all(p[dxl.PWM_LIMIT] == dxl.PWM_MAX)
+        velocity = p[dxl.VELOCITY_LIMIT] * emulator.units.velocity  # [rad/s], gear ratio 1
+        assert np.all((velocity >= talos.velocity_limit) & (velocity < talos.velocity_limit + 0.002))
+    finally:
+        hw.close()
+        emulator.close()
+    # A model whose servos stop at 65 °C, below the safety layer's derating (70 °C).
+    cool = lambda config: dataclasses.replace(  # noqa: E731
+        config, models={k: dict(v, temperature_limit_c=65) for k, v in config.models.items()})
+    hw, emulator, clock = configured_dynamixel(talos, ports=cool)
+    try:
+        assert np.all(emulator.protection[dxl.TEMPERATURE_LIMIT] == 65)
+        hw.activate()
+        state = hw.read()
+        knee = talos.joint_names.index("leg_left_4_joint")
+        emulator.temperature[knee] = 66.0
+        with pytest.raises(HardwareFault, match="leg_left_4_joint: hardware error \\(overheating\\)"):
+            for _ in range(ERROR_CHECK_TICKS):
+                state = tick(hw, clock, hold(talos, state))
+        assert emulator.torque_enable[knee] == 0
     finally:
         hw.close()
         emulator.close()

@@ -17,6 +17,9 @@ entry per joint of the robot::
     drive_timeout_s: 0.1                  # mit_can: drives with a CAN timeout (Damiao) disable themselves
                                           # after this long without a command
     body_sensors: my_lab.sensors:open     # the IMU and foot F/T driver, module:function (hw/body_sensors.py)
+    # dynamixel models may set their protective limits: shutdown (hardware-error bits that switch the
+    # torque off, default 0x34), temperature_limit_c (default 85), pwm_limit (default 885); the
+    # velocity limit is the joint's
     without_drive_timeout: "why"          # mit_can: drives with no command timeout of their own (mit6,
                                           # cubemars) are enabled only with this acknowledgement stated
 
@@ -152,6 +155,10 @@ def load_bus_config(name_or_path: str | Path, joint_names: tuple[str, ...]) -> B
                          path)
             _require(isinstance(spec.get("fast_sync_read", False), bool),
                      f"models.{model}.fast_sync_read must be true or false", path)
+            for key, (lo, hi) in (("shutdown", (0, 255)), ("temperature_limit_c", (0, 100)), ("pwm_limit", (0, 885))):
+                value = spec.get(key, lo)
+                _require(isinstance(value, int) and lo <= value <= hi,
+                         f"models.{model}.{key} = {value!r} must be an integer in [{lo}, {hi}]", path)
     timeout = data.get("reply_timeout_s", BusConfig.reply_timeout)
     _require(isinstance(timeout, (int, float)) and 1e-4 <= timeout <= 1.0,
              f"reply_timeout_s = {timeout!r} is outside the allowed range [0.0001, 1] s", path)

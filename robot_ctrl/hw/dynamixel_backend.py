@@ -11,8 +11,10 @@ each servo's Hardware Error Status and Bus Watchdog: a servo shut down by an err
 overheating...) or whose watchdog expired (it then ignores goals) fails the write, naming it.
 ``configure`` (torque off, so the EEPROM takes writes) puts every servo in current-based position
 mode (Operating Mode 5: the position PID outputs a motor current, so the gains act on torque, not on
-PWM), with return delay 0 and no motion profile (the goal is taken at once), each read back: a
-servo that refuses (a model without mode 5) fails the configuration, naming its joint.
+PWM), with return delay 0 and no motion profile (the goal is taken at once), and writes its
+protective limits (``_protection``: Shutdown, Temperature Limit, PWM Limit and the joint's Velocity
+Limit), each read back: a servo that refuses (a model without mode 5) fails the configuration,
+naming its joint.
 ``activate`` refuses a servo in hardware error, writes its Goal Current (the servo's torque limit:
 its joint's ``effort`` through the gear and torque constant, at most its Current Limit), P = 0,
 D = ``kd_damping`` and goal = present position, then clears each servo's Bus Watchdog, enables
@@ -49,12 +51,17 @@ from robot_ctrl.hw.dynamixel_port import DynamixelPort
 from robot_ctrl.hw.types import JointCommand, JointState
 
 ERROR_CHECK_TICKS = 40  # [ticks] between reads of the Hardware Error Status and the Bus Watchdog
+DEFAULT_SHUTDOWN = 0x34  # overload, electrical shock, overheating switch the torque off (the X-series default)
+#: [°C] above the safety layer's fault temperature (80 °C): the layer's damping acts first, the
+#: servo's own shutdown is the backstop.
+DEFAULT_TEMPERATURE_LIMIT = 85
+PROTECTION_SIZES = {dxl.SHUTDOWN: 1, dxl.TEMPERATURE_LIMIT: 1, dxl.PWM_LIMIT: 2, dxl.VELOCITY_LIMIT: 4}
 
 
 class DynamixelBackend(HardwareAdapter):
     def __init__(self, config: BusConfig, kd_damping: np.ndarray, body_sensors: Callable[[], JointState] | None = None,
                  watchdog_ms: float = 100.0, clock: Callable[[], float] = time.monotonic,
-                 effort: np.ndarray | None = None):
+                 effort: np.ndarray | None = None, velocity: np.ndarray | None = None):
         if config.backend != "dynamixel":
             raise ValueError(f"{config.path.name} is a {config.backend!r} config, not dynamixel")
         if not 20.0 <= watchdog_ms <= 127 * 20.0:
@@ -67,6 +74,7 @@ class DynamixelBackend(HardwareAdapter):
         self.clock = clock
         self.units = dxl.RegisterUnits.of(config)
         self.effort = None if effort is None else np.asarray(effort, dtype=float)  # [N·m] joint side
+        self.velocity = None if velocity is None else np.asarray(velocity, dtype=float)  # [rad/s] joint side
         self.goal_current: np.ndarray | None = None  # registers written at activation
         fast = [bool(config.models[m.model].get("fast_sync_read", False)) for m in config.motors]
         self.ports = [DynamixelPort(name, options, [(i, m) for i, m in enumerate(config.motors) if m.bus == name],
@@ -104,10 +112,12 @@ class DynamixelBackend(HardwareAdapter):
         if self._time is None:
             raise OSError(f"no answer from the servos on {', '.join(p.device for p in self.ports)}")
         current_limit = []
-        for m in self.config.motors:  # torque is off: the EEPROM can be written
+        for i, m in enumerate(self.config.motors):  # torque is off: the EEPROM can be written
             port = self._port_of[m.bus]
             port.set(m, dxl.RETURN_DELAY_TIME, 0, 1)
             port.set(m, dxl.OPERATING_MODE, dxl.CURRENT_BASED_POSITION, 1)
+            for address, value in self._protection(i).items():
+                port.set(m, address, value, PROTECTION_SIZES[address])
             port.set(m, dxl.PROFILE_ACCELERATION, 0, 4)
             port.set(m, dxl.PROFILE_VELOCITY, 0, 4)
             current_limit.append(port.read(m, dxl.CURRENT_LIMIT, 2))
@@ -116,6 +126,18 @@ class DynamixelBackend(HardwareAdapter):
             wanted = np.ceil(self.effort / self.config.gear / self.units.torque).astype(int)
             limit = np.minimum(wanted, limit)
         self.goal_current = limit
+
+    def _protection(self, i: int) -> dict[int, int]:
+        """Servo ``i``'s protective limits (register: value) from its model in the bus config: the
+        hardware errors that switch its torque off, its temperature and PWM limits, and its velocity
+        limit from the joint's (where the robot's velocity limits were given)."""
+        model = self.config.models[self.config.motors[i].model]
+        limits = {dxl.SHUTDOWN: int(model.get("shutdown", DEFAULT_SHUTDOWN)),
+                  dxl.TEMPERATURE_LIMIT: int(model.get("temperature_limit_c", DEFAULT_TEMPERATURE_LIMIT)),
+                  dxl.PWM_LIMIT: int(model.get("pwm_limit", dxl.PWM_MAX))}
+        if self.velocity is not None:
+            limits[dxl.VELOCITY_LIMIT] = int(np.ceil(self.velocity[i] * self.config.gear[i] / self.units.velocity[i]))
+        return limits
 
     def _each_port(self, call) -> list:
         """``call(port)`` on every port, side by side; the results in port order."""

@@ -51,7 +51,12 @@ from robot_ctrl.hw.types import JointCommand, JointState
 
 CURRENT_LIMIT = 32767  # the emulated model's Current Limit register (its largest value)
 PENDING_WAIT = 0.5  # [s] the longest a Sync Read waits for the rest of a tick's goals
-EEPROM = {dxl.RETURN_DELAY_TIME: 1, dxl.OPERATING_MODE: 1, dxl.CURRENT_LIMIT: 2}  # address: size
+EEPROM = {dxl.RETURN_DELAY_TIME: 1, dxl.OPERATING_MODE: 1, dxl.CURRENT_LIMIT: 2, dxl.TEMPERATURE_LIMIT: 1,
+          dxl.PWM_LIMIT: 2, dxl.VELOCITY_LIMIT: 4, dxl.SHUTDOWN: 1}  # address: size
+#: The protective limits' X-series defaults (address: value); stored and read back. Of them the
+#: emulator acts on the temperature limit (with Shutdown's overheating bit: torque off), not on the
+#: velocity and PWM limits (it models no motion profile and no PWM).
+PROTECTION_DEFAULTS = {dxl.TEMPERATURE_LIMIT: 80, dxl.PWM_LIMIT: 885, dxl.VELOCITY_LIMIT: 1023, dxl.SHUTDOWN: 0x34}
 
 
 class DynamixelEmulator:
@@ -73,6 +78,7 @@ class DynamixelEmulator:
         self.operating_mode = np.full(n, 3)  # X-series default: position control (PWM output)
         self.return_delay = np.full(n, 250)  # [2 µs]
         self.current_limit = np.full(n, CURRENT_LIMIT)
+        self.protection = {address: np.full(n, value) for address, value in PROTECTION_DEFAULTS.items()}
         self.goal_current = np.full(n, CURRENT_LIMIT)
         self.profile = np.zeros((n, 2), dtype=np.int64)  # acceleration, velocity
         self.without_current_mode: set[int] = set()
@@ -198,6 +204,8 @@ class DynamixelEmulator:
                 self.operating_mode[i] = value
             elif address == dxl.RETURN_DELAY_TIME:
                 self.return_delay[i] = value
+            elif address in self.protection:
+                self.protection[address][i] = value
             else:
                 self.current_limit[i] = value
             return 0
@@ -229,6 +237,8 @@ class DynamixelEmulator:
         table[dxl.GOAL_CURRENT : dxl.GOAL_CURRENT + 2] = dxl.to_bytes(int(self.goal_current[i]), 2)
         table[dxl.PROFILE_ACCELERATION : dxl.PROFILE_ACCELERATION + 4] = dxl.to_bytes(int(self.profile[i, 0]), 4)
         table[dxl.PROFILE_VELOCITY : dxl.PROFILE_VELOCITY + 4] = dxl.to_bytes(int(self.profile[i, 1]), 4)
+        for register, values in self.protection.items():
+            table[register : register + EEPROM[register]] = dxl.to_bytes(int(values[i]), EEPROM[register])
         table[dxl.TORQUE_ENABLE] = self.torque_enable[i]
         table[dxl.HARDWARE_ERROR_STATUS] = self.hardware_error[i]
         table[dxl.GAINS : dxl.GAINS + 6] = b"".join(dxl.to_bytes(int(g), 2) for g in self.gains[i])
@@ -250,7 +260,10 @@ class DynamixelEmulator:
 
     def _step(self) -> None:
         c = self.config
-        self.torque_enable[self.hardware_error != 0] = 0  # a hardware error shuts the torque off
+        hot = self.temperature >= self.protection[dxl.TEMPERATURE_LIMIT]
+        self.hardware_error[hot] |= 0x04  # overheating
+        shut_down = (self.hardware_error & self.protection[dxl.SHUTDOWN]) != 0
+        self.torque_enable[shut_down] = 0  # a hardware error that Shutdown names switches the torque off
         on = self.torque_enable.astype(float)
         goal = self.goal * self.units.position
         q_des, zero = c.direction * (goal - c.zero) / c.gear, np.zeros(self.nj)

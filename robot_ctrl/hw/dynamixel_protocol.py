@@ -27,6 +27,11 @@ INST_SYNC_READ, INST_SYNC_WRITE, INST_FAST_SYNC_READ = 0x82, 0x83, 0x8A
 BROADCAST = 0xFE
 
 RETURN_DELAY_TIME = 9  # EEPROM, 2 µs units (default 250: 500 µs per servo and read)
+TEMPERATURE_LIMIT = 31  # EEPROM, 1 byte [°C]: above it the servo reports overheating
+PWM_LIMIT = 36  # EEPROM, 2 bytes (PWM_MAX: 100 %)
+PWM_MAX = 885
+VELOCITY_LIMIT = 44  # EEPROM, 4 bytes, velocity units
+SHUTDOWN = 63  # EEPROM, 1 byte: the hardware errors that switch the torque off (bits of HARDWARE_ERRORS)
 OPERATING_MODE = 11  # EEPROM
 CURRENT_BASED_POSITION = 5  # Operating Mode: the position PID outputs a current, limited by Goal Current
 CURRENT_LIMIT = 38  # EEPROM, 2 bytes

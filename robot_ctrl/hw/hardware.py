@@ -95,7 +95,8 @@ def open_hardware(kind: HardwareKind | str, robot: RobotModel, bus_config: str |
         emulator.start()
         config = dataclasses.replace(config, buses={name: dict(port, device=emulator.port_names[name])
                                                     for name, port in config.buses.items()})
-        backend = DynamixelBackend(config, robot.kd, body_sensors=emulator.body_state, effort=robot.effort)
+        backend = DynamixelBackend(config, robot.kd, body_sensors=emulator.body_state, effort=robot.effort,
+                                   velocity=robot.velocity_limit)
     hw = SafetyLayer(backend, limits, clock=emulator.clock)
     hw.start_watchdog()  # a bus has no lock-step: a stalled controller must be caught from outside
     try:
@@ -119,7 +120,8 @@ def _bus_backend(kind: HardwareKind, robot: RobotModel, bus_config: str | None, 
         return MitCanBackend(config, robot.kd, body_sensors=sensors, clock=clock)
     from robot_ctrl.hw.dynamixel_backend import DynamixelBackend
 
-    return DynamixelBackend(config, robot.kd, body_sensors=sensors, clock=clock, effort=robot.effort)
+    return DynamixelBackend(config, robot.kd, body_sensors=sensors, clock=clock, effort=robot.effort,
+                            velocity=robot.velocity_limit)
 
 
 @contextmanager
