@@ -53,6 +53,7 @@ def test_closed_forms_for_every_size_and_weight():
     for topology, n, w in itertools.product(TOPOLOGIES, range(2, 31), (0.1, 1.0, 2.5)):
         graph = CouplingGraph.named(topology, n, weight=w)
         assert graph.closed_form_lambda_plus() == pytest.approx(graph.lambda_plus, rel=1e-9, abs=1e-12), (topology, n)
+        assert graph.closed_form_lambda_top() == pytest.approx(graph.lambda_top, rel=1e-9), (topology, n)
 
 
 def test_the_reported_cases_are_certified_correctly(capsys):
@@ -171,8 +172,76 @@ def test_simulated_step_frequency_convergence_is_never_below_the_certified_rate(
 def test_the_audit_command(capsys):
     assert main(["crowd", "audit", "--graphs", "30", "--max-n", "6"]) == 0
     rows = {line.split()[0]: line.split() for line in capsys.readouterr().out.splitlines()[1:]}
-    assert set(rows) == {"step_frequency", "step_length", "schoener_dose"}
+    assert set(rows) == {"phase_coupling", "hopf_diffusive", "step_frequency", "step_length", "schoener_dose"}
     assert all(row[-1] == "0" for row in rows.values())  # no optimistic certificate
     assert rows["step_frequency"][2] == rows["step_frequency"][1] and float(rows["step_frequency"][3]) == 1.0
     assert main(["crowd", "audit", "--graphs", "0"]) == 2
     assert "--graphs 0 is outside the allowed range [1, 100000]" in capsys.readouterr().err
+
+
+def directed_with_negative_lambda_plus(rng, n):
+    """A weakly connected directed graph whose projected symmetric Laplacian is negative definite
+    (λ⁺ < 0 and its largest eigenvalue < 0 too, the case a negative gain could contract)."""
+    while True:
+        A = random_adjacency(rng, n, symmetric=False)
+        graph = CouplingGraph.from_adjacency(A)
+        if graph.lambda_plus < 0:
+            return A, graph
+
+
+def test_negative_gains_meet_the_largest_eigenvalue(tmp_path, capsys):
+    """Issue cases 1-3: with k < 0 the coupling −k L meets the projected symmetric Laplacian's
+    largest eigenvalue, not λ⁺; every certificate for every sign is at most the brute force."""
+    rng = np.random.default_rng(5)
+    A, graph = directed_with_negative_lambda_plus(rng, 6)
+    assert graph.lambda_top > 0  # some direction is still pulled apart by a negative gain
+    V = basis(graph.n)
+    for k in (-10.0, -0.5, 0.5, 10.0):
+        c = by_name(certify(CouplingConfig(graph, k=k)))
+        truth = -top_eigenvalue(-k * graph.laplacian, V)
+        assert c["phase_coupling"].margin == pytest.approx(truth, abs=1e-9)
+        assert c["hopf_diffusive"].margin == pytest.approx(truth - 1, abs=1e-9)
+        assert c["phase_coupling"].holds == (truth > 0)
+    path = tmp_path / "directed.txt"
+    np.savetxt(path, A)
+    assert main(["crowd", "certify", "--adjacency", str(path), "--k", "-10"]) == 1
+    out = capsys.readouterr().out
+    assert "hopf_diffusive" in out and "holds" not in out.split("hopf_diffusive")[1].split("\n")[0]
+    assert main(["crowd", "run", "--adjacency", str(path), "--k", "-10", "--runs", "2", "--duration", "1"]) == 2
+    assert "violated" in capsys.readouterr().err
+    # Above the exactly enumerated sizes: step frequency and length with negative gains, and the
+    # sine coupling with more than 12 coupled pairs, stay at or below the sampled worst case.
+    for symmetric in (True, False):
+        graph = CouplingGraph.from_adjacency(random_adjacency(rng, 13, symmetric))
+        c = by_name(certify(CouplingConfig(graph, m_d=-5.0, m_z=-5.0, k_sine=-1.0, g=np.array([0.8, 1.2]),
+                                           heading_spread=np.radians(80))))
+        for name, side in (("step_frequency", "right"), ("step_length", "left")):
+            truth = worst_profile_rate(graph.laplacian, -5.0, 0.8, 1.2, side, rng, interior=0)
+            assert not c[name].exact and not c[name].holds and c[name].margin <= truth + 1e-9, (name, symmetric)
+        assert not c["schoener_dose"].holds
+
+
+def test_a_rescaled_graph_is_judged_as_the_original(capsys):
+    """Issue case 4: a directed graph with its weights scaled by 1e-9 and the gain by 1e9 is the
+    same dynamics: not symmetric, still connected, the same certificate."""
+    rng = np.random.default_rng(9)
+    A = random_adjacency(rng, 7, symmetric=False)
+    original = CouplingGraph.from_adjacency(A)
+    tiny = CouplingGraph.from_adjacency(1e-9 * A)
+    assert not original.symmetric and not tiny.symmetric and tiny.connected
+    g = np.array([0.5, 1.5])
+    for name in ("step_frequency", "schoener_dose", "phase_coupling"):
+        a = by_name(certify(CouplingConfig(original, k=1.0, m_d=1.0, k_sine=1.0, g=g)))[name]
+        b = by_name(certify(CouplingConfig(tiny, k=1e9, m_d=1e9, k_sine=1e9, g=g)))[name]
+        assert a.holds == b.holds and b.margin == pytest.approx(a.margin, rel=1e-6), name
+        assert a.method == b.method
+
+
+def test_certify_needs_a_gain_and_the_low_pass_needs_md(capsys):
+    assert main(["crowd", "certify", "--graph", "ring", "--n", "5"]) == 2
+    err = capsys.readouterr().err
+    assert "give at least one coupling gain (--k, --alpha, --md, --mz, --mpsi, --ksine)" in err
+    assert len(err.strip().splitlines()) == 1
+    assert main(["crowd", "certify", "--graph", "ring", "--n", "5", "--k", "1", "--lowpass", "2"]) == 2
+    err = capsys.readouterr().err
+    assert "--lowpass is the step-frequency coupling's position filter: it needs --md" in err

@@ -98,6 +98,13 @@ def test_cli_certify_and_run(tmp_path, capsys):
 
     image = matplotlib.image.imread(tmp_path / "dispersion.png")  # a plot: light background, dark curves
     assert image.shape[0] > 200 and image.shape[1] > 300
+    # A repulsive step-frequency coupling diverges: refused, and run anyway it stops, saying so.
+    diverging = ["crowd", "run", "--graph", "ring", "--n", "14", "--k", "0.5", "--md", "-5", "--runs", "2",
+                 "--duration", "20", "--out", str(tmp_path / "diverging")]
+    assert main(diverging) == 2 and "step_frequency" in capsys.readouterr().err
+    assert main([*diverging, "--allow-unstable"]) == 1
+    assert "the group's state became non-finite at t = 1.21 s" in capsys.readouterr().err
+    assert not (tmp_path / "diverging" / "report.json").exists()
     luminance = image[..., :3].mean(axis=2)
     assert (luminance > 0.9).mean() > 0.5 and (luminance < 0.5).mean() > 0.005
 

@@ -4,6 +4,7 @@ Fig. 4.6, coupled walks in MuJoCo and the gait profile."""
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from robot_ctrl.cli.options import COUPLING_OPTIONS, GROUP_OPTIONS, check_outputs, check_ranges, log_line, named
@@ -34,6 +35,12 @@ def _crowd_certify(args: argparse.Namespace) -> int:
 
     from robot_ctrl.crowd.certificates import CouplingConfig, certify
 
+    gains = {"--k": args.k, "--alpha": args.alpha, "--md": args.md, "--mz": args.mz, "--mpsi": args.mpsi,
+             "--ksine": args.ksine}
+    if all(v is None for v in gains.values()):
+        raise ConfigError(f"crowd certify: give at least one coupling gain ({', '.join(gains)})")
+    if args.lowpass is not None and args.md is None:
+        raise ConfigError("crowd certify: --lowpass is the step-frequency coupling's position filter: it needs --md")
     try:
         g = np.loadtxt(args.g_profile, ndmin=1) if args.g_profile else np.ones(1)
         cfg = CouplingConfig(_crowd_graph(args), k=args.k, alpha=args.alpha, m_d=args.md, m_z=args.mz,
@@ -70,7 +77,7 @@ def _crowd_run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from robot_ctrl.crowd.certificates import refuse_violated
-    from robot_ctrl.crowd.experiments import run_group
+    from robot_ctrl.crowd.experiments import CrowdDiverged, run_group
     from robot_ctrl.crowd.gait_coupling import GaitCoupling
     from robot_ctrl.crowd.gait_profile import GaitProfile
     from robot_ctrl.eval.crowd_figures import plot_dispersion
@@ -91,6 +98,9 @@ def _crowd_run(args: argparse.Namespace) -> int:
         raise ConfigError(f"crowd run: {named(str(exc), COUPLING_OPTIONS)}") from exc
     try:
         result = run_group(coupling, duration=args.duration, runs=args.runs, profile=profile, omega=omega)
+    except CrowdDiverged as exc:
+        print(f"crowd run: {exc}", file=sys.stderr)
+        return 1
     except ValueError as exc:
         raise ConfigError(f"crowd run: {exc}") from exc
     for c in result.conditions:

@@ -116,12 +116,13 @@ def certify(cfg: CouplingConfig) -> list[Condition]:
     if not graph.connected:
         return [Condition("connectivity", "coupling graph connected", False, 0.0, None,
                           "the graph has more than one component: no synchronization of the whole group", True)]
-    lam, method = _lambda_plus(graph)
+    lam, method = _extreme(graph, 1.0)
     g = np.asarray(cfg.g, dtype=float)
     out: list[Condition] = []
     if cfg.k is not None:
-        out.append(_hopf(cfg.k, lam, method))
-        out.append(_rated("phase_coupling", "k λ⁺ > 0", cfg.k * lam, method, True))
+        k_lam, k_method = _extreme(graph, cfg.k)
+        out.append(_hopf(cfg.k, k_lam, k_method))
+        out.append(_rated("phase_coupling", "min_λ k λ > 0", cfg.k * k_lam, k_method, True))
     if cfg.alpha is not None:
         out.extend(_leader(cfg))
     if cfg.m_d is not None:
@@ -144,19 +145,22 @@ def _rated(name: str, statement: str, rate: float, method: str, exact: bool) -> 
     return Condition(name, statement, rate > 0, rate, rate if rate > 0 else None, method, exact)
 
 
-def _lambda_plus(graph: CouplingGraph) -> tuple[float, str]:
-    closed = graph.closed_form_lambda_plus()
-    if closed is not None:
-        return closed, f"closed form, Table 4.1 ({graph.topology}, weight {graph.weight:g})"
-    return graph.lambda_plus, "numerical: λ_min(V L_s Vᵀ)"
+def _extreme(graph: CouplingGraph, gain: float) -> tuple[float, str]:
+    """The projected symmetric Laplacian's eigenvalue that a diffusive coupling of ``gain`` meets
+    at its worst (λ⁺ for a gain ≥ 0, the largest for a negative one), and how it was found."""
+    which = "λ⁺" if gain >= 0 else "λ_top (negative gain)"
+    if graph.topology is not None:
+        return graph.extreme_eigenvalue(gain), f"closed form {which}, Table 4.1 ({graph.topology}, weight {graph.weight:g})"
+    return graph.extreme_eigenvalue(gain), f"numerical: {which} of V L_s Vᵀ"
 
 
 def _hopf(k: float, lam: float, method: str) -> Condition:
     """The oscillator's symmetrized Jacobian is ``(1 − r²) I − 2 p pᵀ`` (p = (x, y)), whose largest
-    eigenvalue 1 − r² is at most 1, reached at r = 0; so for any graph
-    ``sup_x λ_max(V (D(x) − k L⊗I₂)_s Vᵀ) = 1 − k λ⁺(L_s)`` exactly (Weyl for ≤, all r = 0 for =)."""
+    eigenvalue 1 − r² is at most 1, reached at r = 0; so for any graph and any sign of k
+    ``sup_x λ_max(V (D(x) − k L⊗I₂)_s Vᵀ) = 1 − min_λ k λ(V L_s Vᵀ)`` exactly (Weyl for ≤, all r = 0
+    for =): ``lam`` is λ⁺ for k ≥ 0, the largest eigenvalue for k < 0."""
     margin = k * lam - 1.0
-    return Condition("hopf_diffusive", "k λ⁺ > sup λ_max(∂f/∂x)_s = 1", margin > 0, margin,
+    return Condition("hopf_diffusive", "min_λ k λ > sup λ_max(∂f/∂x)_s = 1", margin > 0, margin,
                      margin if margin > 0 else None, f"{method}; sup attained at r = 0", True)
 
 
@@ -182,7 +186,9 @@ def _step_frequency(cfg: CouplingConfig, lam: float, method: str, g: np.ndarray)
     graph, m_d = cfg.graph, cfg.m_d
     if graph.topology == "all":
         # V (L D_g)_s Vᵀ = w N V D_g Vᵀ on 1⊥ for the complete graph: the worst case is all g at min g.
-        out = [_rated("step_frequency", "m_d min g λ⁺ > 0 (all-to-all)", m_d * g.min() * lam, method, True)]
+        # A negative gain meets the largest g (and the graph's largest eigenvalue: N w as well).
+        worst_g = g.min() if m_d >= 0 else g.max()
+        out = [_rated("step_frequency", "m_d min g λ⁺ > 0 (all-to-all)", m_d * worst_g * lam, method, True)]
     else:
         rate, exact, how = _profile_rate(graph, m_d, g, "right")
         out = [_rated("step_frequency", "sup λ_max(−m_d V (L D_g)_s Vᵀ) < 0", rate, how, exact)]
@@ -209,8 +215,8 @@ def _step_length(cfg: CouplingConfig, lam: float, g: np.ndarray) -> Condition:
     coupling the overall rate is min(ρ_φ, ρ_z)."""
     graph = cfg.graph
     gain = cfg.m_z * cfg.omega
-    if graph.topology == "all":
-        rate, exact, how = gain * g.min() * lam, True, "closed form, all-to-all: ω m_z min g λ⁺"
+    if graph.topology == "all":  # every eigenvalue is N w; a negative gain meets the largest g
+        rate, exact, how = gain * (g.min() if gain >= 0 else g.max()) * lam, True, "closed form, all-to-all: ω m_z min g λ⁺"
     else:
         rate, exact, how = _profile_rate(graph, gain, g, "left")
     if cfg.k is not None and cfg.k > 0 and rate > 0:
@@ -222,6 +228,8 @@ def _schoener_dose(cfg: CouplingConfig, lam: float, method: str) -> Condition:
     graph, k, spread = cfg.graph, cfg.k_sine, cfg.heading_spread
     statement = f"k > 0, |ψ_i − ψ_j| ≤ {np.degrees(spread):.0f}° < 90° (eq. 4.45)"
     if graph.symmetric:
+        if k < 0:  # repulsive: λ_max(−k V L(W) Vᵀ) ≥ |k| cos Δ λ⁺ > 0, and ≤ |k| λ_top (W ≤ A)
+            return _rated("schoener_dose", statement, k * graph.lambda_top, "symmetric graph, k < 0: rate ≥ k λ_top", False)
         return _rated("schoener_dose", statement, k * lam * float(np.cos(spread)), f"{method}; rate k λ⁺ cos Δ", False)
     adjacency = -graph.laplacian.copy()
     np.fill_diagonal(adjacency, 0.0)

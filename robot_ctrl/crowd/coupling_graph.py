@@ -14,6 +14,7 @@ from functools import cached_property
 import numpy as np
 
 TOPOLOGIES = ("all", "ring", "chain", "star")
+RELATIVE_TOLERANCE = 1e-12  # of the largest |L_ij|: symmetry, links, signs
 
 
 @dataclass(frozen=True, eq=False)
@@ -64,7 +65,7 @@ class CouplingGraph:
         if not np.all(np.isfinite(L)):
             raise ValueError("laplacian entries must be finite")
         off = L - np.diag(np.diag(L))
-        if np.any(off > 1e-12):
+        if np.any(off > RELATIVE_TOLERANCE * np.abs(L).max()):
             raise ValueError("laplacian off-diagonal entries must be ≤ 0 (they are minus the link weights)")
         if np.any(np.abs(L.sum(axis=1)) > 1e-9 * max(1.0, np.abs(L).max())):
             raise ValueError("laplacian rows must sum to zero (L_ii = Σ_j A_ij)")
@@ -75,8 +76,14 @@ class CouplingGraph:
         return self.laplacian.shape[0]
 
     @property
+    def scale(self) -> float:
+        """The largest |L_ij|: what the tolerances are relative to (a graph and its rescaled copy
+        with the gain rescaled inversely are the same dynamics, and must be judged alike)."""
+        return float(np.abs(self.laplacian).max())
+
+    @property
     def symmetric(self) -> bool:
-        return bool(np.allclose(self.laplacian, self.laplacian.T))
+        return bool(np.abs(self.laplacian - self.laplacian.T).max() <= RELATIVE_TOLERANCE * self.scale)
 
     @cached_property
     def projected_eigenvalues(self) -> np.ndarray:
@@ -88,7 +95,7 @@ class CouplingGraph:
     @property
     def connected(self) -> bool:
         """Connected when links are taken in both directions (a single component)."""
-        A = (-(self.laplacian + self.laplacian.T) > 1e-12).astype(float)
+        A = (-(self.laplacian + self.laplacian.T) > RELATIVE_TOLERANCE * self.scale).astype(float)
         seen, frontier = {0}, [0]
         while frontier:
             i = frontier.pop()
@@ -105,6 +112,19 @@ class CouplingGraph:
         return float(self.projected_eigenvalues[0])
 
     @property
+    def lambda_top(self) -> float:
+        """The largest eigenvalue of the projected symmetric Laplacian: what a negative gain meets."""
+        return float(self.projected_eigenvalues[-1])
+
+    def extreme_eigenvalue(self, gain: float) -> float:
+        """The projected symmetric Laplacian's eigenvalue λ that minimizes ``gain · λ``: λ⁺ for a
+        gain ≥ 0, the largest one for a negative gain (``min_λ gain λ`` is what a diffusive
+        coupling ``−gain L`` guarantees)."""
+        if self.topology is not None:
+            return self.closed_form_lambda_plus() if gain >= 0 else self.closed_form_lambda_top()
+        return self.lambda_plus if gain >= 0 else self.lambda_top
+
+    @property
     def lambda_max(self) -> float:
         """Largest eigenvalue of ``L_s``."""
         return float(np.linalg.eigvalsh((self.laplacian + self.laplacian.T) / 2)[-1])
@@ -119,6 +139,18 @@ class CouplingGraph:
             return 2.0 * w
         return w * {"all": float(n), "star": 1.0, "chain": 2 * (1 - np.cos(np.pi / n)),
                     "ring": 2 * (1 - np.cos(2 * np.pi / n))}[self.topology]
+
+
+    def closed_form_lambda_top(self) -> float | None:
+        """The largest eigenvalue of the named topologies' projected Laplacian, times their link
+        weight (all and star: N w; chain 2 w (1 − cos(π (N − 1)/N)); ring 2 w (1 − cos(2π ⌊N/2⌋/N))), else None."""
+        n, w = self.n, self.weight
+        if self.topology is None:
+            return None
+        if n == 2:
+            return 2.0 * w
+        return w * {"all": float(n), "star": float(n), "chain": 2 * (1 - np.cos(np.pi * (n - 1) / n)),
+                    "ring": 2 * (1 - np.cos(2 * np.pi * (n // 2) / n))}[self.topology]
 
 
 def laplacian_of(adjacency: np.ndarray) -> np.ndarray:

@@ -16,6 +16,10 @@ from robot_ctrl.crowd.gait_profile import GaitProfile
 from robot_ctrl.crowd.hopf_network import simulate, simulate_crowd
 
 
+class CrowdDiverged(ArithmeticError):
+    """A simulated group's state became non-finite (an uncertified, diverging coupling)."""
+
+
 @dataclass(frozen=True)
 class GroupRun:
     conditions: list[Condition]
@@ -52,6 +56,13 @@ def run_group(coupling: GaitCoupling, duration: float = 30.0, runs: int = 100, s
     g = None if profile is None else profile.scaled(profile.nominal_speed, omega).g
     out = simulate_crowd(coupling, duration, omega=omega, g=g, runs=runs, seed=seed)
     times, phases = out.times, out.phases
+    finite = np.ones(len(times), dtype=bool)
+    for values in (out.phases, out.z, out.headings):
+        if values is not None:
+            finite &= np.isfinite(values).reshape(len(times), -1).all(axis=1)
+    if not finite.all():
+        raise CrowdDiverged(f"the group's state became non-finite at t = {times[np.argmin(finite)]:.3g} s: "
+                            "the coupling diverged")
     dispersion = angular_dispersion(phases).mean(axis=1)
     last = phases[-1]
     mean = np.angle(np.exp(1j * last).mean(axis=1, keepdims=True))

@@ -127,18 +127,27 @@ def simulate_crowd(coupling: GaitCoupling, duration: float, omega: float = 2 * n
         return tuple(x if d is None else x + h * d for x, d in zip(state, rate))
 
     record(0)
-    for i in range(steps):
-        state = (osc, z, psi)
-        stages = [rates(*state)]
-        for h in (0.5 * dt, 0.5 * dt, dt):
-            stages.append(rates(*shifted(state, stages[-1], h)))
-        increment = tuple(None if parts[0] is None else (parts[0] + 2 * parts[1] + 2 * parts[2] + parts[3]) / 6.0
-                          for parts in zip(*stages))
-        if walk:  # the floor position moves along the heading at the path speed (heading at the step's start)
-            p = p + dt * np.stack([increment[1] * np.cos(psi), increment[1] * np.sin(psi)], axis=-1)
-        osc, z, psi = shifted(state, increment, dt)
-        if (i + 1) % record_every == 0:
-            record((i + 1) // record_every)
+    with np.errstate(invalid="ignore", over="ignore"):  # a diverging group ends as NaN, checked below
+        for i in range(steps):
+            state = (osc, z, psi)
+            stages = [rates(*state)]
+            for h in (0.5 * dt, 0.5 * dt, dt):
+                stages.append(rates(*shifted(state, stages[-1], h)))
+            increment = tuple(None if parts[0] is None else (parts[0] + 2 * parts[1] + 2 * parts[2] + parts[3]) / 6.0
+                              for parts in zip(*stages))
+            if walk:  # the floor position moves along the heading at the path speed (heading at the step's start)
+                p = p + dt * np.stack([increment[1] * np.cos(psi), increment[1] * np.sin(psi)], axis=-1)
+            osc, z, psi = shifted(state, increment, dt)
+            if (i + 1) % record_every == 0:
+                record((i + 1) // record_every)
+            if not (np.isfinite(osc).all() and (z is None or np.isfinite(z).all())):
+                # Diverged: the rest of the record is NaN (the caller reports when it began).
+                frame = (i + 1) // record_every + 1
+                for values in (phases, zs, psis, ps):
+                    if values is not None:
+                        values[frame:] = np.nan
+                phases[min(frame - 1, frames - 1)] = np.nan
+                break
     times = np.arange(frames) * dt * record_every
     return CrowdTrajectory(times, phases, zs, psis, ps)
 

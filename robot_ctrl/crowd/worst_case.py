@@ -15,7 +15,9 @@ The two Jacobians of the gait couplings (conference paper eq. 2, thesis 4.4.2), 
 - step frequency, ``φ̇ = ω₀ − m (L G(φ) + c)``: ``J = −m L D_g``;
 - step length, ``ż = ω g(φ)(1 − m (L z + c))``: ``J = −m D_g L``.
 
-With ``D_g = ḡ I + D_δ``, |δ_i| ≤ Δ: ``λ_max(V J_s Vᵀ) ≤ −m ḡ λ⁺ + m Δ ‖L‖₂`` (``‖L D_δ‖₂ ≤ Δ ‖L‖₂``).
+With ``D_g = ḡ I + D_δ``, |δ_i| ≤ Δ: ``λ_max(V J_s Vᵀ) ≤ −min_λ m ḡ λ + |m| Δ ‖L‖₂``
+(``‖L D_δ‖₂ ≤ Δ ‖L‖₂``; λ over the projected symmetric Laplacian's eigenvalues: λ⁺ for m ≥ 0, the
+largest for m < 0). The vertex enumeration holds for either sign (λ_max stays convex in p).
 """
 
 from __future__ import annotations
@@ -53,9 +55,11 @@ def profile_coupling_rate(laplacian: np.ndarray, gain: float, g_min: float, g_ma
         J = -gain * (laplacian[None] * G[:, None, :] if side == "right" else G[:, :, None] * laplacian[None])
         return -float(projected_symmetric_max(J).max()), True
     Ls = (laplacian + laplacian.T) / 2
-    lam = float(np.linalg.eigvalsh(complement_basis(n) @ Ls @ complement_basis(n).T)[0])
+    V = complement_basis(n)
+    eig = np.linalg.eigvalsh(V @ Ls @ V.T)
     centre, radius = (g_min + g_max) / 2, (g_max - g_min) / 2
-    return gain * centre * lam - abs(gain) * radius * float(np.linalg.norm(laplacian, 2)), False
+    lam = eig[0] if gain >= 0 else eig[-1]  # min over λ of gain·centre·λ
+    return gain * centre * float(lam) - abs(gain) * radius * float(np.linalg.norm(laplacian, 2)), False
 
 
 def sine_coupling_rate(adjacency: np.ndarray, gain: float, spread: float) -> tuple[float, str]:
@@ -79,7 +83,8 @@ def sine_coupling_rate(adjacency: np.ndarray, gain: float, spread: float) -> tup
     L = np.diag(adjacency.sum(axis=1)) - adjacency
     Ls = (L + L.T) / 2
     V = complement_basis(n)
-    lam = float(np.linalg.eigvalsh(V @ Ls @ V.T)[0])
+    eig = np.linalg.eigvalsh(V @ Ls @ V.T)
+    lam = float(eig[0] if gain >= 0 else eig[-1])  # min over λ of k·cos Δ·λ
     # L(W) = cos Δ L + L(A ∘ E), 0 ≤ E ≤ 1 − cos Δ entrywise: ‖L(A ∘ E)‖₂ ≤ (1 − cos Δ) ‖|L|‖₂.
-    return (gain * (low * lam - (1 - low) * float(np.linalg.norm(np.abs(L), 2))),
-            "Weyl: k (cos Δ λ⁺ − (1 − cos Δ) ‖|L|‖₂)")
+    return (gain * low * lam - abs(gain) * (1 - low) * float(np.linalg.norm(np.abs(L), 2)),
+            "Weyl: k cos Δ λ − |k| (1 − cos Δ) ‖|L|‖₂ (λ: λ⁺ for k ≥ 0, the largest for k < 0)")
