@@ -72,6 +72,8 @@ def test_a_walk_over_an_emulated_servo_bus(hw, tmp_path):
     assert report["fell"] is False and report["final_position_error_m"] < 0.05
     assert report["zmp_in_support_ratio"] > 0.98 and report["peak_torque_ratio"] < 1.0
     assert report["safety"]["state"] == "active" and "rejected_command" not in report["safety"]["interventions"]
+    demanded = report["safety"]["demanded_peak_torque_ratio"]  # before the layer, per joint
+    assert len(demanded) == 32 and 0.0 < demanded["leg_left_4_joint"] < 2.0
 
 
 def test_a_video_of_the_simulated_robot(talos, tmp_path):

@@ -136,6 +136,28 @@ def test_random_and_adversarial_commands_and_measurements_stay_safe(talos, limit
     assert hw.interventions["gain_clamped"] > 100 and hw.interventions["torque_clamped"] > 1000
 
 
+def test_the_report_keeps_what_the_controller_demanded_before_the_clamp(talos, limits):
+    """The servos deliver at most the effort limit; the report must still show that the controller
+    asked for twice that, per joint."""
+    hw, backend = layer(talos, limits)
+    q = backend.measured.q
+    for _ in range(20):  # past the soft start
+        hw.clock.t += DT
+        hw.write(hold(talos, q))
+        hw.read()
+    backend.measured = JointState(t=1.0, q=q, dq=np.zeros(talos.nj), tau=np.zeros(talos.nj))
+    hw.read()  # a fresh state
+    knee = talos.joint_names.index("leg_left_4_joint")
+    tau_ff = np.zeros(talos.nj)
+    tau_ff[knee] = 2.0 * limits.effort[knee]
+    hw.clock.t += DT
+    hw.write(hold(talos, q, tau_ff=tau_ff))
+    demanded = hw.report()["demanded_peak_torque_ratio"]
+    assert demanded[knee] == pytest.approx(2.0, abs=1e-3) and max(np.delete(demanded, knee)) < 0.01
+    sent = backend.commands()[-1]
+    assert abs(sent.tau_ff[knee]) <= limits.effort[knee] + 1e-9  # delivered within the limit
+
+
 def test_the_issue_cases_are_bounded_at_the_measured_state(talos, limits):
     hw, backend = layer(talos, limits)
     q = backend.measured.q

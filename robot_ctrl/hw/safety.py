@@ -21,6 +21,10 @@ What it does with each ``write`` (in this order), each counted in ``intervention
   (``servo_torque.bound_servo_torque``: τ_ff clipped, the target moved within the position limits,
   and where that is not enough both gains scaled down).
 
+``report()`` gives the interventions, the mode and state, the bus statistics, and per joint the
+largest servo torque the controller's commands demanded, at the measured state, before any clamp
+(``demanded_peak_torque_ratio``, over the effort limit): a run's delivered peaks stop at 1.
+
 What it watches:
 
 - ``bad_measurement``: a state whose time, q, dq, temperature, IMU or foot force/torque reading is
@@ -68,7 +72,7 @@ import numpy as np
 
 from robot_ctrl.hw.adapter import HardwareAdapter, HardwareFault
 from robot_ctrl.hw.safety_limits import SafetyLimits
-from robot_ctrl.hw.servo_torque import bound_servo_torque
+from robot_ctrl.hw.servo_torque import bound_servo_torque, servo_torque
 from robot_ctrl.hw.types import CommandError, JointCommand, JointState, LifecycleState
 
 S = LifecycleState
@@ -115,6 +119,9 @@ class SafetyLayer(HardwareAdapter):
         self._fresh_at = None  # clock time of the last state that advanced
         self._ticks = 0  # writes since the soft start began
         self._rejected = 0  # commands rejected in a row
+        #: (nj,) [N·m] the largest |servo torque| the controller's commands asked for, at the measured
+        #: state, before any clamp of this layer (what the report's delivered peaks hide).
+        self.demanded_peak = np.zeros(backend.nj)
         self._derate = np.ones(backend.nj)
         self._warned = np.zeros(backend.nj, dtype=bool)
         self._beyond = np.zeros(backend.nj, dtype=bool)  # measured beyond a position limit
@@ -265,6 +272,7 @@ class SafetyLayer(HardwareAdapter):
     def report(self) -> dict:
         b = self.backend
         return {"interventions": dict(self.interventions), "mode": self.mode.value, "state": self.state.value,
+                "demanded_peak_torque_ratio": np.round(self.demanded_peak / self.limits.effort, 3).tolist(),
                 "bus": {"missing_replies": b.missing_replies, "late_replies": b.late_replies,
                         "error_frames": b.error_frames, "foreign_frames": b.foreign_frames}}
 
@@ -374,6 +382,8 @@ class SafetyLayer(HardwareAdapter):
 
     def _filter(self, cmd: JointCommand) -> JointCommand:
         lim, state = self.limits, self._last_good
+        demand = servo_torque(cmd.q, cmd.dq, cmd.kp, cmd.kd, cmd.tau_ff, state.q, state.dq)
+        np.maximum(self.demanded_peak, np.abs(demand), out=self.demanded_peak)
         kp, kd = np.minimum(cmd.kp, lim.kp_max), np.minimum(cmd.kd, lim.kd_max)
         if np.any(kp != cmd.kp) or np.any(kd != cmd.kd):
             self._intervene("gain_clamped", f"joints {np.flatnonzero((kp != cmd.kp) | (kd != cmd.kd)).tolist()}")
