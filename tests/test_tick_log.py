@@ -43,3 +43,44 @@ def test_what_is_not_a_log_is_refused_in_one_line(tmp_path, capsys):
     assert main(["log", str(tmp_path / "missing.log")]) == 2
     assert main(["walk", "--distance", "1", "--log", str(tmp_path)]) == 2
     assert "is a folder" in capsys.readouterr().err
+
+
+def test_the_log_is_written_off_the_control_thread(talos, tmp_path):
+    """The control thread only packs a record; a thread of the log's own writes it (a slow disk must
+    not delay a tick)."""
+    import threading
+    from types import SimpleNamespace
+
+    from robot_ctrl.eval.tick_log import TickLogWriter
+    from robot_ctrl.hw.mujoco_backend import MujocoBackend
+    from robot_ctrl.hw.safety import SafetyLayer, SafetyLimits
+    from robot_ctrl.hw.types import JointCommand
+
+    hw = SafetyLayer(MujocoBackend(talos), SafetyLimits.for_simulation(talos), clock=None)
+    hw.bring_up()
+    state = hw.read()
+    writer = TickLogWriter(tmp_path / "ticks.log", talos, hw, 0.005)
+    writers = []
+
+    class Spy:  # the log file, noting which thread writes to it
+        def __init__(self, file):
+            self.file = file
+
+        def write(self, data):
+            writers.append(threading.current_thread().name)
+            return self.file.write(data)
+
+        def flush(self):
+            self.file.flush()
+
+        def close(self):
+            self.file.close()
+
+    writer._file = Spy(writer._file)
+    zero = np.zeros(talos.nj)
+    command = JointCommand(q=state.q, dq=zero, kp=talos.kp, kd=talos.kd, tau_ff=zero)
+    for k in range(5):
+        writer.on_command(SimpleNamespace(k=k, states=[state], commands=[command]))
+    writer.close()
+    hw.close()
+    assert writers == ["tick-log"] * 5 and len(read_tick_log(tmp_path / "ticks.log").records) == 5

@@ -5,8 +5,9 @@ safety layer's intervention kinds, the numpy dtype of a record), then one fixed-
 control tick: the measured state the command was computed from, the command, the safety layer's
 mode and cumulative intervention counts, the bus statistics (replies missed in all and per motor
 in a row, late replies, error frames) and the loop's lateness behind its deadline (real hardware).
-Records are written as they come and flushed every ``FLUSH_TICKS``: a run that dies leaves a log
-readable up to its last whole record. Values a backend does not measure are NaN (the base pose
+Records are packed on the control thread and written by a thread of their own (a slow disk never
+delays a tick), flushed every ``FLUSH_TICKS``: a run that dies leaves a log readable up to its last
+whole record written. Values a backend does not measure are NaN (the base pose
 on servo buses, temperatures in simulation). SI units, joint order of the robot config.
 
 :func:`log_report` turns a log into the report of a simulated run (``RunMetrics``: falls, peak
@@ -17,6 +18,8 @@ writes it as ``report.json``, the series as ``timeseries.npz`` and renders ``rep
 from __future__ import annotations
 
 import json
+import queue
+import threading
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -66,6 +69,17 @@ class TickLogWriter:
         self._record = np.zeros(1, self.dtype)
         self._last = None
         self.ticks = 0
+        self._records: queue.SimpleQueue[bytes | None] = queue.SimpleQueue()
+        self._writer = threading.Thread(target=self._write_records, name="tick-log", daemon=True)
+        self._writer.start()
+
+    def _write_records(self) -> None:
+        written = 0
+        while (record := self._records.get()) is not None:
+            self._file.write(record)
+            written += 1
+            if written % FLUSH_TICKS == 0:
+                self._file.flush()
 
     def on_command(self, tick) -> None:
         self._write(tick.k, tick.states[self.index], tick.commands[self.index])
@@ -78,6 +92,9 @@ class TickLogWriter:
         if self._last is not None:
             self._write(self._last.k + 1, self._last.states[self.index], None)
             self._last = None
+        if self._writer.is_alive():
+            self._records.put(None)
+            self._writer.join()
         self._file.close()
 
     def _write(self, k: int, s, c) -> None:
@@ -98,10 +115,8 @@ class TickLogWriter:
         r["interventions"] = [hw.interventions[kind] for kind in INTERVENTIONS]
         r["missing_replies"], r["missed"] = backend.missing_replies, backend.missed
         r["late_replies"], r["error_frames"] = backend.late_replies, backend.error_frames
-        self._file.write(self._record.tobytes())
+        self._records.put(self._record.tobytes())
         self.ticks += 1
-        if self.ticks % FLUSH_TICKS == 0:
-            self._file.flush()
 
 
 @contextmanager
