@@ -15,7 +15,8 @@ from robot_ctrl import cli
 
 INVALID = ("nan", "inf", "-inf", "")
 EDGE = ("-1", "0", "1e9")
-NEEDS = {("synth",): ["--distance", "1.5"], ("crowd", "run"): ["--k", "1"], ("report",): ["/nonexistent-run"],
+NEEDS = {("synth",): ["--distance", "1.5"], ("crowd", "run"): ["--k", "1"], ("crowd", "certify"): ["--md", "1"],
+         ("report",): ["/nonexistent-run"],
          ("campaign",): ["--n", "2"]}
 
 

@@ -160,9 +160,9 @@ def test_without_position_feedback_the_synthesis_alone_steers_the_walk(tmp_path)
 
 def test_the_naive_baseline_plays_learned_joint_angles(tmp_path):
     """Thesis 3.8.4's naive method: every joint learned from the feasible runs and played on the
-    servos after the walk-in. With enough sources, at a training sequence, the playback walks the
-    robot to the drawer (the playback itself is sound); with no hand task and no grasp logic the
-    hands miss (the thesis judged the naive method by its falls, torques and forces only)."""
+    servos after the walk-in. With enough sources, at a training sequence, the playback is sound:
+    it walks the robot to the drawer, and the learned hands, with no hand task and no grasp logic,
+    take the handle, pull the drawer open and reach the object as the training run did."""
     status = main(["drawer", "--method", "naive", "--sources", "8+8", "--distance", "1.40", "--slot", "back_right",
                    "--speed", "middle", "--quiet", "--out", str(tmp_path)])
     report = json.loads((tmp_path / "report.json").read_text())
@@ -170,4 +170,4 @@ def test_the_naive_baseline_plays_learned_joint_angles(tmp_path):
     assert report["actions"] == [1, 2, 3]
     assert max(abs(e) for e in report["step_length_errors_m"][:2]) < 0.03
     assert abs(report["final_pelvis_to_drawer_m"] - report["comfort_distance_m"]) < 0.03
-    assert report["drawer_opening_m"] < 0.01 and report["hand_to_object_m"] > 0.1 and not report["success"]
+    assert report["drawer_opening_m"] >= report["drawer_opening_required_m"] and report["hand_to_object_m"] < 0.02
