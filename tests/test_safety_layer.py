@@ -136,17 +136,23 @@ def test_random_and_adversarial_commands_and_measurements_stay_safe(talos, limit
     assert hw.interventions["gain_clamped"] > 100 and hw.interventions["torque_clamped"] > 1000
 
 
-def test_the_report_keeps_what_the_controller_demanded_before_the_clamp(talos, limits):
-    """The servos deliver at most the effort limit; the report must still show that the controller
-    asked for twice that, per joint."""
+def settled(talos, limits, dq):
+    """The layer past its soft start at half-sitting, then a fresh measured state moving at ``dq``."""
     hw, backend = layer(talos, limits)
     q = backend.measured.q
-    for _ in range(20):  # past the soft start
+    for _ in range(20):
         hw.clock.t += DT
         hw.write(hold(talos, q))
         hw.read()
-    backend.measured = JointState(t=1.0, q=q, dq=np.zeros(talos.nj), tau=np.zeros(talos.nj))
-    hw.read()  # a fresh state
+    backend.measured = JointState(t=1.0, q=q, dq=dq, tau=np.zeros(talos.nj))
+    hw.read()
+    return hw, backend, q
+
+
+def test_the_report_keeps_what_the_controller_demanded_before_the_clamp(talos, limits):
+    """The servos deliver at most the effort limit; the report must still show that the controller
+    asked for twice that, per joint."""
+    hw, backend, q = settled(talos, limits, np.zeros(talos.nj))
     knee = talos.joint_names.index("leg_left_4_joint")
     tau_ff = np.zeros(talos.nj)
     tau_ff[knee] = 2.0 * limits.effort[knee]
@@ -159,15 +165,8 @@ def test_the_report_keeps_what_the_controller_demanded_before_the_clamp(talos, l
 
 
 def test_the_issue_cases_are_bounded_at_the_measured_state(talos, limits):
-    hw, backend = layer(talos, limits)
-    q = backend.measured.q
-    for _ in range(20):  # past the soft start
-        hw.clock.t += DT
-        hw.write(hold(talos, q))
-        hw.read()
-    moving = JointState(t=1.0, q=q, dq=limits.velocity.copy(), tau=np.zeros(talos.nj))
-    backend.measured = moving
-    hw.read()
+    hw, backend, q = settled(talos, limits, limits.velocity.copy())
+    moving = backend.measured
     cases = {
         "kd 50 at the velocity limit, kp 0": hold(talos, q, kp=np.zeros(talos.nj), kd=np.full(talos.nj, 50.0)),
         "kd 1e12": hold(talos, q, kd=np.full(talos.nj, 1e12)),
