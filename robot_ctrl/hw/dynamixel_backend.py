@@ -51,11 +51,9 @@ from robot_ctrl.hw.dynamixel_port import DynamixelPort
 from robot_ctrl.hw.types import JointCommand, JointState
 
 ERROR_CHECK_TICKS = 40  # [ticks] between reads of the Hardware Error Status and the Bus Watchdog
-DEFAULT_SHUTDOWN = 0x34  # overload, electrical shock, overheating switch the torque off (the X-series default)
 #: [°C] above the safety layer's fault temperature (80 °C): the layer's damping acts first, the
 #: servo's own shutdown is the backstop.
 DEFAULT_TEMPERATURE_LIMIT = 85
-PROTECTION_SIZES = {dxl.SHUTDOWN: 1, dxl.TEMPERATURE_LIMIT: 1, dxl.PWM_LIMIT: 2, dxl.VELOCITY_LIMIT: 4}
 
 
 class DynamixelBackend(HardwareAdapter):
@@ -117,7 +115,7 @@ class DynamixelBackend(HardwareAdapter):
             port.set(m, dxl.RETURN_DELAY_TIME, 0, 1)
             port.set(m, dxl.OPERATING_MODE, dxl.CURRENT_BASED_POSITION, 1)
             for address, value in self._protection(i).items():
-                port.set(m, address, value, PROTECTION_SIZES[address])
+                port.set(m, address, value, dxl.PROTECTIVE_LIMITS[address])
             port.set(m, dxl.PROFILE_ACCELERATION, 0, 4)
             port.set(m, dxl.PROFILE_VELOCITY, 0, 4)
             current_limit.append(port.read(m, dxl.CURRENT_LIMIT, 2))
@@ -132,7 +130,7 @@ class DynamixelBackend(HardwareAdapter):
         hardware errors that switch its torque off, its temperature and PWM limits, and its velocity
         limit from the joint's (where the robot's velocity limits were given)."""
         model = self.config.models[self.config.motors[i].model]
-        limits = {dxl.SHUTDOWN: int(model.get("shutdown", DEFAULT_SHUTDOWN)),
+        limits = {dxl.SHUTDOWN: int(model.get("shutdown", dxl.SHUTDOWN_DEFAULT)),
                   dxl.TEMPERATURE_LIMIT: int(model.get("temperature_limit_c", DEFAULT_TEMPERATURE_LIMIT)),
                   dxl.PWM_LIMIT: int(model.get("pwm_limit", dxl.PWM_MAX))}
         if self.velocity is not None:

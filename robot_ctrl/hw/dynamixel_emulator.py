@@ -24,7 +24,8 @@ by Goal Current at the measured state (``bound_servo_torque``); the PWM output o
 not modelled. Torque disabled: limp. A Bus Watchdog that expires
 (no packet for its time, wall clock) stops the servo where it is, torque on (the goal becomes the
 present position, as the X-series e-manual says: "the DYNAMIXEL will stop"); the Goal Position is
-read-only (a write is refused with a range error) and the register reads −1 until the host writes 0. ``temperature`` (°C, per servo) is what Present
+read-only (a write is refused with a range error) and the register reads −1 until the host writes 0.
+``temperature`` (°C, per servo) is what Present
 Temperature reports; tests raise it to exercise the safety layer. ``hardware_error`` (per servo)
 is its Hardware Error Status: a servo with one set is limp and refuses torque, as after an
 overload shutdown. Gains beyond the register range (``GAIN_MAX``) are ignored, as a servo ignores
@@ -51,12 +52,13 @@ from robot_ctrl.hw.types import JointCommand, JointState
 
 CURRENT_LIMIT = 32767  # the emulated model's Current Limit register (its largest value)
 PENDING_WAIT = 0.5  # [s] the longest a Sync Read waits for the rest of a tick's goals
-EEPROM = {dxl.RETURN_DELAY_TIME: 1, dxl.OPERATING_MODE: 1, dxl.CURRENT_LIMIT: 2, dxl.TEMPERATURE_LIMIT: 1,
-          dxl.PWM_LIMIT: 2, dxl.VELOCITY_LIMIT: 4, dxl.SHUTDOWN: 1}  # address: size
+#: address: size
+EEPROM = {dxl.RETURN_DELAY_TIME: 1, dxl.OPERATING_MODE: 1, dxl.CURRENT_LIMIT: 2, **dxl.PROTECTIVE_LIMITS}
 #: The protective limits' X-series defaults (address: value); stored and read back. Of them the
 #: emulator acts on the temperature limit (with Shutdown's overheating bit: torque off), not on the
 #: velocity and PWM limits (it models no motion profile and no PWM).
-PROTECTION_DEFAULTS = {dxl.TEMPERATURE_LIMIT: 80, dxl.PWM_LIMIT: 885, dxl.VELOCITY_LIMIT: 1023, dxl.SHUTDOWN: 0x34}
+PROTECTION_DEFAULTS = {dxl.TEMPERATURE_LIMIT: 80, dxl.PWM_LIMIT: dxl.PWM_MAX, dxl.VELOCITY_LIMIT: 1023,
+                       dxl.SHUTDOWN: dxl.SHUTDOWN_DEFAULT}
 
 
 class DynamixelEmulator:
@@ -261,7 +263,7 @@ class DynamixelEmulator:
     def _step(self) -> None:
         c = self.config
         hot = self.temperature >= self.protection[dxl.TEMPERATURE_LIMIT]
-        self.hardware_error[hot] |= 0x04  # overheating
+        self.hardware_error[hot] |= dxl.OVERHEATING
         shut_down = (self.hardware_error & self.protection[dxl.SHUTDOWN]) != 0
         self.torque_enable[shut_down] = 0  # a hardware error that Shutdown names switches the torque off
         on = self.torque_enable.astype(float)
