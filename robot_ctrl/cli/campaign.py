@@ -49,8 +49,8 @@ def _campaign(args: argparse.Namespace) -> int:
         check_drawer_tasks(tasks, robot, dataset=None if demos is None else Path(demos), whole_body=naive)
     backend = backend_of(args, "campaign")
     args.out.mkdir(parents=True, exist_ok=True)
-    result = campaign.run_drawer_campaign(trials, args.out, backend, timeout=args.timeout, progress=not args.quiet,
-                                          log=log_line)
+    result = campaign.run_drawer_campaign(trials, args.out, backend, robot, timeout=args.timeout,
+                                          progress=not args.quiet, log=log_line)
     if result is None:
         raise KeyboardInterrupt("the campaign stopped; run the same command again to finish it")
     for s in result["summary"]:

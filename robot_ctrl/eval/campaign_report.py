@@ -141,9 +141,14 @@ def _peaks_over_time(rows: list[dict], out_dir: Path):
     return fig
 
 
+def demonstrations_label(dataset: str | None) -> str:
+    """How a campaign row's demonstration set is shown: its file name (None: the robot's default)."""
+    return Path(dataset).name if dataset else "default set"
+
+
 def _transitions_section(transitions: list[dict], png: str) -> str:
     """Fig. 3.38: a row per primitives (how far the two postures are apart) and their side views."""
-    rows = "".join(f"<tr><td>{html.escape(Path(t['dataset']).name if t['dataset'] else 'default set')}</td>"
+    rows = "".join(f"<tr><td>{html.escape(demonstrations_label(t['dataset']))}</td>"
                    f"<td>{html.escape(t['sources'])}</td><td>{t['short_cycles_m'][0] * 100:.1f} / "
                    f"{t['short_cycles_m'][1] * 100:.1f}</td><td>{t['transition_max_joint_difference_rad']:.3f}</td>"
                    f"<td>{t['transition_left_hand_distance_m'] * 1e3:.1f}</td></tr>" for t in transitions)

@@ -20,7 +20,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from robot_ctrl.eval.campaign_backends import Backend
-from robot_ctrl.eval.campaign_report import render_campaign
+from robot_ctrl.eval.campaign_report import demonstrations_label, render_campaign
 from robot_ctrl.eval.campaign_runner import CampaignRun, run_campaign
 from robot_ctrl.eval.transition_postures import (
     TRANSITION_DISTANCES,
@@ -32,7 +32,7 @@ from robot_ctrl.eval.transition_postures import (
 from robot_ctrl.eval.trial_process import Trial, TrialOutcome
 from robot_ctrl.geometry.drawer import SLOTS
 from robot_ctrl.modes import FilterMode, SpeedClass
-from robot_ctrl.robot.model import RobotModel, load_robot
+from robot_ctrl.robot.model import RobotModel
 from robot_ctrl.synthesis.demonstrations import kinematic_dataset_path
 from robot_ctrl.synthesis.learned import load_primitives
 
@@ -202,16 +202,16 @@ def run_drawer_trials(trials: Sequence[DrawerTrial], out_dir: Path, backend: Bac
                         timeout=timeout, progress=progress, label=label)
 
 
-def run_drawer_campaign(trials: Sequence[DrawerTrial], out_dir: Path, backend: Backend, *,
+def run_drawer_campaign(trials: Sequence[DrawerTrial], out_dir: Path, backend: Backend, robot: RobotModel, *,
                         timeout: float = TRIAL_TIMEOUT, progress: bool = True,
                         log: Callable[[str], None] = print) -> dict | None:
     """Run the trials not yet done in ``out_dir``; when all are, write ``campaign.json`` and
-    ``campaign.html`` and return the campaign; None when interrupted."""
+    ``campaign.html`` (``robot``: the trials' robot, for the Fig. 3.38 postures) and return the
+    campaign; None when interrupted."""
     run = run_drawer_trials(trials, out_dir, backend, timeout=timeout, progress=progress)
     if not run.complete:
         log(f"{len(run.rows)} of {len(trials)} trials done; run the same command again to finish the campaign")
         return None
-    robot = load_robot("talos")
     transitions = campaign_transitions(run.rows, robot)
     campaign = {"trials": run.rows, "summary": summarize(run.rows),
                 "transition_postures": [t | transition_summary(postures) for t, postures in transitions]}
@@ -247,6 +247,6 @@ def transition_figure(robot: RobotModel, transitions: list[tuple[dict, list[dict
 
     fig, axes = plt.subplots(1, len(transitions), figsize=(4.5 * len(transitions), 6.5), squeeze=False)
     for ax, (group, postures) in zip(axes[0], transitions):
-        name = Path(group["dataset"]).name if group["dataset"] else "default set"
-        draw_transition_postures(robot, postures, ax, f"{name}, {group['sources']} sources")
+        draw_transition_postures(robot, postures, ax, f"{demonstrations_label(group['dataset'])}, "
+                                 f"{group['sources']} sources")
     return fig
