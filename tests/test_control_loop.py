@@ -156,3 +156,26 @@ def test_the_pacers_record_stays_bounded_and_keeps_the_worst_tick():
     assert len(pacer.lateness) == LATENESS_WINDOW and report["ticks"] == LATENESS_WINDOW + 11
     assert report["overruns"] == 1 and report["lateness_ms"]["median"] == 0.0
     assert report["lateness_ms"]["max"] == pytest.approx(2.0)  # long out of the window, still the worst
+
+
+def test_a_paced_run_keeps_the_garbage_collector_off_what_existed_before_it(talos):
+    """On real servos a full collection over the loaded modules and models (tens of ms) would stall
+    a tick at a moment nobody chose: the paced loop freezes what exists when it starts, and only for
+    the run; a simulated run (no pacer) leaves the collector as it is."""
+    import gc
+
+    from robot_ctrl.control.pacer import Pacer
+
+    class FrozenDuringStep(HoldPosture):
+        def step(self, state):
+            self.frozen = gc.get_freeze_count()
+            return super().step(state)
+
+    with open_hardware("mujoco", talos) as hw:
+        hw.bring_up()
+        for pacer in (None, Pacer(0.005)):
+            controller = FrozenDuringStep(talos, hw.read())
+            ControlLoop([hw], [controller], 0.005, pacer=pacer, stops=[TimeLimit(0.0099, "two ticks")]).run(
+                [hw.read()])
+            assert (controller.frozen > 10_000) == (pacer is not None), controller.frozen
+            assert gc.get_freeze_count() == 0

@@ -72,7 +72,7 @@ def test_a_walk_on_real_servos_starts_with_the_start_sequence_and_walks_on_the_e
     assert lines[0].startswith("start sequence: held half-sitting")
     assert report["base_state"] == "estimated" and report["base_ground_truth"] is False
     assert report["base_estimate_error"] is None and not report["fell"]
-    assert "watchdog" not in report["safety"]["interventions"] and report["timing"]["ticks"] > 0
+    assert "watchdog" not in report["safety"]["interventions"] and report["timing"]["ticks"] > 0, report["timing"]
     # The start sequence came first, at reduced stiffness (StartParams.gain_scale 0.3), then the walk
     # at the servo gains.
     kp = np.array([c.kp for _, c in emulator.received])

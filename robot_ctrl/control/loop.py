@@ -15,6 +15,10 @@ A tick at time ``t_k = k dt``::
 A simulated robot waits for its controller, so the loop runs as fast as it computes; a real one
 does not, and a :class:`~robot_ctrl.control.pacer.Pacer` keeps the ticks on absolute deadlines
 (the state is read at the deadline, the command follows it by the controller's compute time).
+A paced run freezes the objects that exist when it starts out of Python's garbage collector
+(``gc.freeze``): a full collection over a loaded robot's modules and models takes tens of
+milliseconds, several control periods, and would come at a moment nobody chose; what the run itself
+allocates is still collected.
 The controllers compute while their robots move, as on a real robot (ros2_control's split:
 hardware components read and write, controllers step, the loop owns the timing). Commanders steer a
 controller only through its command API (``set_velocity``, ``stop_at``, ...), at the controller's
@@ -23,6 +27,7 @@ sample hook or in ``begin_tick``; recorders and stop conditions only observe.
 
 from __future__ import annotations
 
+import gc
 import time
 from dataclasses import dataclass
 from typing import Protocol, Sequence
@@ -105,6 +110,8 @@ class ControlLoop:
             commander.begin_tick(0.0)
         wall0 = time.perf_counter()
         k = 0
+        if self.pacer is not None:
+            gc.freeze()
         try:
             while True:
                 t = k * self.dt
@@ -129,5 +136,7 @@ class ControlLoop:
                     return LoopResult(k + 1, reason, states, time.perf_counter() - wall0, self.dt)
                 k += 1
         finally:
+            if self.pacer is not None:
+                gc.unfreeze()
             for controller in self.controllers:
                 controller.close()
