@@ -1,5 +1,7 @@
 """Stack-of-tasks IK: strict priorities, joint limits at every level, typed infeasibility."""
 
+import dataclasses
+
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -128,7 +130,7 @@ def test_the_feet_hold_exactly_when_the_com_target_is_out_of_reach(talos):
 
 def test_whole_body_ik_reaches_the_demo_hand_target(talos):
     """Kinematically, the balance demo's reach is feasible with feet fixed and the CoM held."""
-    ik = WholeBodyIK(talos, talos.q_half_sitting)
+    ik = WholeBodyIK(talos, talos.q_half_sitting, acceleration_limits=False)
     feet0 = {s: ik.pose(f"{s}_foot") for s in ("left", "right")}
     com0 = ik.com_position()
     # 0.4 m ahead, 0.2 m right, 0.8 m above the soles, from midway between the feet.
@@ -197,3 +199,34 @@ def test_prepared_solve_with_a_moved_target_equals_a_fresh_solve(talos, tasks):
     solver.prepare(talos.pin, data, q, DT)
     with pytest.raises(ValueError, match="'right_hand' is not an active task of the prepared stack"):
         solver.finish(retargeted=(tasks[2],))
+
+
+def test_the_ik_changes_an_upper_body_joints_velocity_no_faster_than_its_servo_can(talos):
+    """A hand target 0.4 m away at once: without acceleration limits the arm's velocity jumps in
+    one step (a torque the servo's damping asks for and cannot give); with them every upper-body
+    joint's velocity changes by at most a_max dt per step (up to 15 % more on the last step into
+    a soft position limit, where the position wins; the discrete braking bound keeps that small),
+    the feet hold exactly, and the hand still gets there."""
+    robot = dataclasses.replace(talos, config=dataclasses.replace(talos.config, acceleration_fraction=0.12))
+    jumps = {}
+    for limited in (False, True):
+        ik = WholeBodyIK(robot, talos.q_half_sitting, acceleration_limits=limited)
+        feet0 = {s: ik.pose(f"{s}_foot") for s in ("left", "right")}
+        target = ik.pose("right_hand").translation + [0.3, 0.0, 0.25]
+        ik.hands["right"].active = True
+        ik.hands["right"].set_target(pin.SE3(np.eye(3), target))
+        previous = np.zeros(talos.pin.nv)
+        worst = np.zeros(talos.nj)
+        for _ in range(800):
+            v = ik.step(DT)
+            worst = np.maximum(worst, np.abs(v - previous)[talos.v_index] / DT)
+            previous = v
+        jumps[limited] = worst
+        assert np.linalg.norm(ik.pose("right_hand").translation - target) < 0.005
+        for s in ("left", "right"):
+            assert np.linalg.norm(pin.log6(feet0[s].actInv(ik.pose(f"{s}_foot"))).vector) < 1e-6
+    limits = JointLimits.from_robot(robot, np.arange(talos.pin.nv))
+    upper = np.isfinite(WholeBodyIK(robot, talos.q_half_sitting).solver.limits.a_max)
+    assert upper.sum() == 20 and not upper[:12].any()  # torso, arms, grippers, head; not the legs
+    assert (jumps[True][upper] <= 1.15 * limits.a_max[upper]).all()
+    assert (jumps[False][upper] > 2 * limits.a_max[upper]).any()

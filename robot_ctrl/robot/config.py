@@ -64,6 +64,7 @@ class RobotConfig:
     servo: ServoGains
     position_margin: float  # [rad]
     velocity_fraction: float
+    acceleration_fraction: float | None  # share of each joint's effort limit the IK may spend accelerating it (None: no bound)
     max_gain_ratio: float  # the largest kp and kd a command may carry, over the default gains
     timestep: float  # [s] physics step of the simulation backend
 
@@ -177,6 +178,8 @@ def parse_robot_config(raw: Mapping[str, Any], source: str = "robot config") -> 
         ),
         position_margin=_number(limits, "position_margin", f"{source}: limits", 0.0, 0.5),
         velocity_fraction=_number(limits, "velocity_fraction", f"{source}: limits", 0.01, 1.0),
+        acceleration_fraction=(None if limits.get("acceleration_fraction") is None
+                               else _number(limits, "acceleration_fraction", f"{source}: limits", 0.01, 1.0)),
         max_gain_ratio=_number(limits, "max_gain_ratio", f"{source}: limits", 1.0, 10.0),
         timestep=_number(sim, "timestep", f"{source}: simulation", 1e-4, 0.01),
     )

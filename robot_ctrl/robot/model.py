@@ -35,6 +35,7 @@ class RobotModel:
     armature: np.ndarray  # reflected rotor inertia [kg·m²]
     kp: np.ndarray  # default servo stiffness [N·m/rad]
     kd: np.ndarray  # default servo damping [N·m·s/rad]
+    joint_inertia: np.ndarray  # each joint's diagonal of the mass matrix at half-sitting, armature included [kg·m²]
     q_half_sitting: np.ndarray  # Pinocchio configuration, base at the world origin
 
     @property
@@ -114,7 +115,7 @@ def load_robot(name_or_config: str | RobotConfig) -> RobotModel:
     return RobotModel(
         config=config, files=files, pin=model, q_index=q_index, v_index=v_index, frame_ids=frame_ids,
         lower=lower, upper=upper, velocity_limit=model.velocityLimit[v_index].copy(), effort=effort,
-        armature=armature, kp=kp, kd=kd, q_half_sitting=q0,
+        armature=armature, kp=kp, kd=kd, joint_inertia=mass_diag, q_half_sitting=q0,
     )
 
 

@@ -1,4 +1,4 @@
-"""JointLimits: position and velocity limits as bounds on the IK velocity, at every level."""
+"""JointLimits: position, velocity and acceleration limits as bounds on the IK velocity, at every level."""
 
 from __future__ import annotations
 
@@ -15,13 +15,29 @@ class LimitViolation(ValueError):
 
 @dataclass(frozen=True)
 class JointLimits:
-    """Bounds ``lo ≤ v_j ≤ hi`` for the actuated dofs ``v_index`` over one step ``dt``::
+    """Bounds ``lo ≤ v_j ≤ hi`` for the actuated dofs ``v_index`` over one step ``dt``. From the
+    position and velocity limits, with the distance in which the joint can still brake::
 
-        lo = max(-v_max, min(0, (q_min - q) / dt)),  hi = min(v_max, max(0, (q_max - q) / dt))
+        lo_p = max(-v_max, min(0, max((q_min - q) / dt, -b(q - q_min))))
+        hi_p = min(v_max, max(0, min((q_max - q) / dt, b(q_max - q))))
+
+    with ``b(d) = a_max (√(dt²/4 + 2 d / a_max) − dt/2)`` the fastest velocity from which steps of
+    ``dt`` decelerating by ``a_max`` stop within ``d`` (``v²/2a + v dt/2 = d``, the discrete form of
+    ``√(2 a d)``); and, given the IK's previous velocity ``v⁻``, from the acceleration limit, inside
+    those::
+
+        lo = clip(v⁻ - a_max dt, lo_p, hi_p),  hi = clip(v⁻ + a_max dt, lo_p, hi_p)
+
+    (the joint-space bounds of Flacco, De Luca and Khatib, IEEE T-RO 31(3), 2015, §III, on the
+    velocity; where the acceleration limit and the position limit disagree, the position wins).
 
     ``[q_min, q_max]`` are the URDF limits shrunk by the config's margin (soft limits): the IK
     never moves a joint into the margin, and a joint already inside it may stay or move out of
-    it. ``v_max`` is the URDF velocity limit times the config's fraction. A configuration
+    it. ``v_max`` is the URDF velocity limit times the config's fraction. ``a_max`` (None: no
+    acceleration limit; ∞ on a joint: none on it) is ``share × effort / M_ii``, the config's share
+    of the effort limit over the joint's inertia at half-sitting: what the servo can accelerate the
+    joint with, the rest of its torque left for gravity, friction and the other joints' coupling. A reference that changes velocity
+    faster than that is a torque the servo's damping asks for and cannot give. A configuration
     outside the hard URDF limits ``[hard_min, hard_max]`` raises :class:`LimitViolation`.
     """
 
@@ -33,21 +49,47 @@ class JointLimits:
     q_min: np.ndarray
     q_max: np.ndarray
     v_max: np.ndarray
+    a_max: np.ndarray | None = None
 
     @classmethod
-    def from_robot(cls, robot: RobotModel) -> "JointLimits":
-        margin = robot.config.position_margin
+    def from_robot(cls, robot: RobotModel, accelerated: np.ndarray | None = None) -> "JointLimits":
+        """``accelerated``: velocity indices of the joints whose acceleration is bounded too (a
+        controller's IK, whose velocity the servos follow); None: none (a kinematic planner), as
+        when the robot config sets no ``limits.acceleration_fraction``."""
+        c = robot.config
+        a_max = None
+        if accelerated is not None and c.acceleration_fraction is not None:
+            a_max = np.where(np.isin(robot.v_index, accelerated),
+                             c.acceleration_fraction * robot.effort / robot.joint_inertia, np.inf)
         return cls(robot.q_index, robot.v_index, robot.joint_names, robot.lower, robot.upper,
-                   robot.lower + margin, robot.upper - margin,
-                   robot.velocity_limit * robot.config.velocity_fraction)
+                   robot.lower + c.position_margin, robot.upper - c.position_margin,
+                   robot.velocity_limit * c.velocity_fraction, a_max)
 
-    def bounds(self, q: np.ndarray, dt: float, tol: float = 1e-6) -> tuple[np.ndarray, np.ndarray]:
+    def bounds(self, q: np.ndarray, dt: float, previous: np.ndarray | None = None,
+               tol: float = 1e-6) -> tuple[np.ndarray, np.ndarray]:
+        """``previous``: the IK's velocity of the last step on the bounded dofs (None: no
+        acceleration bound, as at a start)."""
         qj = q[self.q_index]
         outside = np.flatnonzero((qj < self.hard_min - tol) | (qj > self.hard_max + tol))
         if outside.size:
             detail = ", ".join(f"{self.names[i]} = {qj[i]:.4f} not in [{self.hard_min[i]:.4f}, {self.hard_max[i]:.4f}]"
                                for i in outside)
             raise LimitViolation(f"configuration outside the joint limits: {detail}")
-        lo = np.maximum(-self.v_max, np.minimum(0.0, (self.q_min - qj) / dt))
-        hi = np.minimum(self.v_max, np.maximum(0.0, (self.q_max - qj) / dt))
-        return lo, hi
+        to_min, to_max = (self.q_min - qj) / dt, (self.q_max - qj) / dt
+        if self.a_max is not None:
+            bounded = np.isfinite(self.a_max)
+            a = np.where(bounded, self.a_max, 1.0)
+            to_min = np.where(bounded, np.maximum(to_min, -_braking(a, -to_min * dt, dt)), to_min)
+            to_max = np.where(bounded, np.minimum(to_max, _braking(a, to_max * dt, dt)), to_max)
+        lo = np.maximum(-self.v_max, np.minimum(0.0, to_min))
+        hi = np.minimum(self.v_max, np.maximum(0.0, to_max))
+        if self.a_max is None or previous is None:
+            return lo, hi
+        step = self.a_max * dt
+        return np.clip(previous - step, lo, hi), np.clip(previous + step, lo, hi)
+
+
+def _braking(a_max: np.ndarray, distance: np.ndarray, dt: float) -> np.ndarray:
+    """``b(d) = a (√(dt²/4 + 2 d / a) − dt/2)``: the velocity that steps of ``dt`` decelerating by
+    ``a`` bring to rest within ``d ≥ 0`` (``v²/2a + v dt/2 = d``); 0 at or beyond the limit."""
+    return a_max * (np.sqrt(dt * dt / 4.0 + 2.0 * np.maximum(0.0, distance) / a_max) - dt / 2.0)

@@ -119,13 +119,15 @@ class HierarchicalQP:
         self.last: list[LevelResult] = []
         self._prepared: _Prepared | None = None
 
-    def solve(self, model: pin.Model, data: pin.Data, q: np.ndarray, dt: float) -> np.ndarray:
-        """Velocity ``v`` (nv) for one step of ``dt`` seconds from configuration ``q``."""
-        self.prepare(model, data, q, dt)
+    def solve(self, model: pin.Model, data: pin.Data, q: np.ndarray, dt: float,
+              previous: np.ndarray | None = None) -> np.ndarray:
+        """Velocity ``v`` (nv) for one step of ``dt`` seconds from configuration ``q``; ``previous``:
+        the last step's velocity (nv), for the joints' acceleration limits (None: none applied)."""
+        self.prepare(model, data, q, dt, previous=previous)
         return self.finish()
 
     def prepare(self, model: pin.Model, data: pin.Data, q: np.ndarray, dt: float,
-                retargetable: tuple[Task, ...] = ()) -> None:
+                retargetable: tuple[Task, ...] = (), previous: np.ndarray | None = None) -> None:
         """First half of :meth:`solve`: the bounds, the kinematics at ``q`` (in ``data``, which must
         not be recomputed at another configuration before :meth:`finish`), each active task's rows
         for its current target and the fast path's KKT matrix, factorized and solved, also for
@@ -134,7 +136,7 @@ class HierarchicalQP:
         if not np.all(np.isfinite(q)):
             raise InfeasibleError(0, "configuration contains NaN or inf")
         try:
-            lo, hi = self.limits.bounds(q, dt)
+            lo, hi = self.limits.bounds(q, dt, None if previous is None else previous[self.limits.v_index])
         except LimitViolation as exc:
             raise InfeasibleError(0, str(exc)) from exc
         pin.computeJointJacobians(model, data, q)

@@ -62,10 +62,16 @@ START_TOLERANCE = 0.01  # [rad]
 
 class WholeBodyIK:
     def __init__(self, robot: RobotModel, q0: np.ndarray, gain: float = 40.0, posture_weight: float = 0.03,
-                 trunk_weight: float = 1.0, balance_with_arms: bool = True):
+                 trunk_weight: float = 1.0, balance_with_arms: bool = True, acceleration_limits: bool = True):
         """``trunk_weight``: the torso joints' posture weight relative to the other joints'.
         ``balance_with_arms``: the CoM task may move the torso, arms and head; without it, only the
-        legs (the pelvis) carry the CoM, and the upper body is left to its posture and hands."""
+        legs (the pelvis) carry the CoM, and the upper body is left to its posture and hands.
+        ``acceleration_limits``: each upper-body joint's velocity changes by at most ``a_max dt`` per
+        step (:class:`JointLimits`), so that its servo can follow it; off for a kinematic planner.
+        The legs are left without: the feet must hold exactly, and a leg joint stopped at its
+        position limit must be answered by the other leg joints at once (acceleration bounds on
+        every joint of a closed chain cannot all be kept). Their motion comes from the walking
+        pattern's smooth CoM and swing-foot paths, well inside their servos' accelerations."""
         self.robot = robot
         self.data = robot.pin.createData()
         self.q = np.array(q0, dtype=float)
@@ -74,6 +80,7 @@ class WholeBodyIK:
         self.q[robot.q_index] = np.where(near, np.clip(joints, robot.lower, robot.upper), joints)
         self._stale = True
         self._prepared: tuple | None = None  # (q it was prepared at, dt, retargetable tasks)
+        self.v = np.zeros(robot.pin.nv)  # the last step's velocity (the start at rest): the acceleration limits' reference
         ids = robot.frame_ids
         self.feet = {s: FrameTask(f"{s}_foot", ids[f"{s}_foot"], gain=gain) for s in SIDES}
         locked = hand_tool_dofs(robot) if balance_with_arms else upper_body_dofs(robot)
@@ -86,7 +93,7 @@ class WholeBodyIK:
         self.solver = HierarchicalQP(
             [[self.feet["left"], self.feet["right"]], [self.com, self.waist],
              [self.hands["left"], self.hands["right"], self.posture]],
-            JointLimits.from_robot(robot))
+            JointLimits.from_robot(robot, upper_body_dofs(robot) if acceleration_limits else None))
         self.hold_current()
 
     def hold_current(self) -> None:
@@ -127,7 +134,7 @@ class WholeBodyIK:
         """First half of :meth:`step` (``HierarchicalQP.prepare``): all the solve needs from ``q``
         and the targets set so far; ``retargetable`` tasks may get new targets before
         :meth:`finish` at little cost."""
-        self.solver.prepare(self.robot.pin, self.data, self.q, dt, retargetable)
+        self.solver.prepare(self.robot.pin, self.data, self.q, dt, retargetable, self.v)
         self._prepared = (self.q, dt, retargetable)
 
     def finish(self, retargeted: tuple = ()) -> np.ndarray:
@@ -139,7 +146,7 @@ class WholeBodyIK:
         if q is not self.q:
             self.prepare(dt, retargetable)
         self._prepared = None
-        v = self.solver.finish(retargeted)
+        v = self.v = self.solver.finish(retargeted)
         self.q = pin.integrate(self.robot.pin, self.q, v * dt)
         self._stale = True  # frame placements are recomputed only when a pose is asked for
         return v

@@ -186,7 +186,7 @@ class _Trial:
 
     def __init__(self, robot: RobotModel, dt: float):
         self.robot, self.dt = robot, dt
-        self.ik = WholeBodyIK(robot, robot.q_half_sitting)
+        self.ik = WholeBodyIK(robot, robot.q_half_sitting, acceleration_limits=False)  # kinematic demonstrations
         # A person reaches with the arms, keeps the trunk quiet and the hips where they are: no CoM
         # task (it would swing the other arm to hold the centre of mass); the legs hold the pelvis
         # through their posture, weighted as the torso's.
