@@ -9,6 +9,7 @@ targets (the robot has no perception); how far the drawer is open, the robot mea
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Callable
 
 import numpy as np
 
@@ -19,12 +20,17 @@ from robot_ctrl.synthesis.synthesizer import GoalJump
 
 @dataclass(frozen=True)
 class DrawerTargets:
-    start: np.ndarray  # world (x, y, yaw) of the base at the start
+    start_pose: Callable[[], np.ndarray]  # world (x, y, yaw) of the base at the start, as the robot now knows it
     pelvis_height: float  # [m] of the standing pelvis above the floor
     distance0: float  # [m] closed front panel from the start pelvis along the start heading
     slot: str
     jumps: tuple[GoalJump, ...] = ()
     geometry: DrawerGeometry = field(default_factory=DrawerGeometry)
+
+    @property
+    def start(self) -> np.ndarray:
+        """World (x, y, yaw) of the base at the start: the task's frame."""
+        return self.start_pose()
 
     @property
     def forward(self) -> np.ndarray:
@@ -37,11 +43,13 @@ class DrawerTargets:
 
     def world(self, x: float, y: float, z: float) -> np.ndarray:
         """A point of the start frame (x along the heading, y left, z above the floor) in the world."""
-        return np.array([*(self.start[:2] + rotation(self.start[2]) @ [x, y]), z])
+        start = self.start
+        return np.array([*(start[:2] + rotation(start[2]) @ [x, y]), z])
 
     def advance(self, xy: np.ndarray) -> float:
         """How far the world point ``xy`` is ahead of the start along its heading [m]."""
-        return float((np.asarray(xy)[:2] - self.start[:2]) @ self.forward[:2])
+        start = self.start
+        return float((np.asarray(xy)[:2] - start[:2]) @ rotation(start[2])[:, 0])
 
     def handle(self, t: float) -> np.ndarray:
         """Where the left gripper base holds the closed drawer's handle (world) [m]."""

@@ -102,12 +102,12 @@ class WalkReachCommander:
         self._slowing_lag = SLOWING_LAG / max(speed, 1.0) ** FAST_SLOWING_EXPONENT
         self.body = SynthesizedBody(controller.robot)
         self.hands = DrawerHands(controller, targets, self.body)
-        self.heading = rotation(targets.start[2])
         self.base_posture = controller.start_posture.copy()
         self._posture_now = self.base_posture.copy()
         self._preview: SynthesisPreview | None = None
         self._preview_t = 0.0
-        self.feet_offset = {s: self.heading.T @ (f.xy - targets.start[:2]) for s, f in controller.footsteps().items()}
+        start = targets.start
+        self.feet_offset = {s: rotation(start[2]).T @ (f.xy - start[:2]) for s, f in controller.footsteps().items()}
         self.synth: Synthesizer | None = None
         self.synth_start_advance = 0.0  # measured pelvis advance when the synthesis started [m]
         self.output = None  # the synthesizer's last output of a running sequence
@@ -119,7 +119,7 @@ class WalkReachCommander:
         self._waiting_for_pelvis = False  # standing begins once the pelvis has arrived
         self.t = 0.0
         self._com_from_pelvis = controller.reference_com()[:2] - controller.reference_configuration()[:2]  # world axes
-        self._com_offset = float(self._com_from_pelvis @ self.heading[:, 0])
+        self._com_offset = float(self._com_from_pelvis @ targets.forward[:2])
         # Walk off at the first action's mean speed until the synthesis starts; meanwhile the upper
         # body blends to the synthesis's first posture.
         dry = Synthesizer(primitives, self._goal(0.0))
@@ -291,7 +291,7 @@ class WalkReachCommander:
         self.stopping_at = target
         ahead = target + self._stance_shift
         start = self.targets.start
-        c.stop_at(*(Footstep(s, *(start[:2] + self.heading @ (self.feet_offset[s] + [ahead, 0.0])), float(start[2]))
+        c.stop_at(*(Footstep(s, *(start[:2] + rotation(start[2]) @ (self.feet_offset[s] + [ahead, 0.0])), float(start[2]))
                     for s in SIDES))
         self.log(f"t = {t:6.2f} s  last short cycle: stopping with the pelvis {target:.3f} m from the start "
                  f"(feet {self._stance_shift * 100:.1f} cm ahead of it for the reach)")

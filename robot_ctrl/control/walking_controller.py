@@ -24,6 +24,7 @@ from typing import Callable
 import numpy as np
 import pinocchio as pin
 
+from robot_ctrl.control.attitude_filter import AttitudeFilter
 from robot_ctrl.control.estimator import StateEstimator
 from robot_ctrl.control.push_recovery import plan_velocity_change
 from robot_ctrl.control.stabilizer import DcmStabilizer
@@ -160,6 +161,8 @@ class WalkingController:
         self.dynfilter = (DynamicFilterWorker if worker else DynamicFilter)(
             robot, self.params.horizon, self.params.com_height, dynfilter, options.dynfilter_passes)
         self.estimator = StateEstimator(robot)
+        self.attitude_filter = AttitudeFilter()
+        self.attitude_filter.update(state)
         self.estimate = None
         self._statics = robot.pin.createData()
         self.k = 0
@@ -207,6 +210,13 @@ class WalkingController:
     def set_time_scale(self, scale: float) -> None:
         """Physical / nominal duration of the gait from the next sample on (step period × scale)."""
         self.wpg.set_time_scale(scale)
+
+    # What the sensors say ---------------------------------------------------------------------
+    @property
+    def start_pose(self) -> np.ndarray:
+        """World (x, y, yaw) of the base at the first measured state, as every reading since tells it
+        (:class:`~robot_ctrl.control.attitude_filter.AttitudeFilter`): the frame a task is stated in."""
+        return self.attitude_filter.start_pose
 
     # What the plan says -----------------------------------------------------------------------
     @property
@@ -385,7 +395,7 @@ class WalkingController:
         ref = prepared.reference
         self.k += 1
         self.reference = ref
-        self.estimate = self.estimator.estimate(state)
+        self.estimate = self.estimator.estimate(self.attitude_filter.update(state))
         self._measure_stance(ref)
         correction = self.stabilizer.correction(self.estimate, prepared.com, prepared.com_velocity,
                                                 ref.zmp + self._balance_shift, self.dt)

@@ -10,8 +10,9 @@ that the backend calls once per tick, after reading the joints, and that returns
 - ``t``: when the reading was taken, in seconds since ``open`` on a monotonic clock (the run's
   time: the state's, which its time limits and logs count in);
 - ``base_quat_xyzw``: the IMU's attitude estimate (x, y, z, w), of the base link in the world;
-- ``base_angvel``: the gyro [rad/s] and ``base_linacc`` the accelerometer [m/s², gravity
-  included], both in the base frame;
+- ``base_angvel``: the gyro [rad/s], its mean since the last call (the IMU's delta angle over that
+  time, divided by it, as IMUs that integrate their gyro internally report it), and ``base_linacc``
+  the accelerometer [m/s², gravity included], both in the base frame;
 - ``foot_wrench``: ``{"left": (6,), "right": (6,)}``, force [N] then moment [N·m] at each sole
   frame's origin, in the sole frame, the floor's reaction on the foot;
 - ``base_pos`` and ``base_linvel``: None (no sensor measures them: the floating-base estimator

@@ -97,6 +97,7 @@ class MujocoBackend(HardwareAdapter):
         qvel_at = mujoco.mj_stateSize(self.m, mujoco.mjtState.mjSTATE_TIME | mujoco.mjtState.mjSTATE_QPOS)
         self._servo_qpos_col = qpos_at + self.m.jnt_qposadr[joints]
         self._servo_qvel_col = qvel_at + self.m.jnt_dofadr[joints]
+        self._gyro_col = qvel_at + self.map.base_dof + np.arange(3, 6)
         self._gear = self.m.actuator_gear[self._acts, 0].copy()
         self._joint_order = np.arange(self.nj)
         self.cabinet = None if prop is None else DrawerCabinet(
@@ -183,6 +184,20 @@ class MujocoBackend(HardwareAdapter):
         demand = constant - kp * states[:, self._servo_qpos_col] - kd * states[:, self._servo_qvel_col]
         return demand[np.abs(demand).argmax(axis=0), self._joint_order]
 
+    def _gyro(self) -> np.ndarray:
+        """The base's angular velocity in its own frame (MuJoCo's free joint keeps it body-frame),
+        averaged over the physics steps of the last control period as an IMU that integrates its
+        gyro at the physics rate reports it (a delta angle over the period, / dt): the velocities
+        after each step, those MuJoCo integrated the orientation with. Before any period, the
+        present one."""
+        d, v = self.d, self.map.base_dof
+        now = d.qvel[v + 3: v + 6]
+        states = self.world.step_states
+        n = len(states)
+        if abs(states[0, 0] + n * self.m.opt.timestep - d.time) > 0.5 * self.m.opt.timestep:
+            return now.copy()
+        return (states[1:, self._gyro_col].sum(axis=0) + now) / n
+
     def _read(self) -> JointState:
         m, d, mp = self.m, self.d, self.map
         b, v = mp.base_qpos, mp.base_dof
@@ -196,7 +211,7 @@ class MujocoBackend(HardwareAdapter):
             base_pos=d.qpos[b : b + 3].copy(),
             base_quat_xyzw=d.qpos[self._base_xyzw],
             base_linvel=d.qvel[v : v + 3].copy(),
-            base_angvel=d.qvel[v + 3 : v + 6].copy(),  # MuJoCo's free-joint angular velocity is body-frame
+            base_angvel=self._gyro(),
             base_linacc=rot.T @ (d.qacc[v : v + 3] - m.opt.gravity),
             foot_wrench=self._foot_wrenches(),
             tau_demand=self._peak_demand(),

@@ -37,7 +37,9 @@ class JointState:
       (z up, floor at z = 0).
     - ``base_linvel`` [m/s]: base-link origin velocity in the world frame.
     - ``base_angvel`` [rad/s], ``base_linacc`` [m/s²]: gyro and accelerometer (proper
-      acceleration, gravity included) in the base-link frame, as an IMU on the base reads them.
+      acceleration, gravity included) in the base-link frame, as an IMU on the base reads them;
+      the gyro as its mean over the control period that ended with the reading (an IMU's delta
+      angle over the period, divided by it), so that the rotations read compose to the base's.
     - ``foot_wrench``: per side ("left"/"right"), the contact wrench on the foot (the floor's, and
       that of anything else the foot touches),
       ``[fx, fy, fz, mx, my, mz]`` [N, N·m] expressed in the sole frame about its origin,

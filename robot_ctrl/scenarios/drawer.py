@@ -57,7 +57,8 @@ def run_drawer(robot: RobotModel, hw: SafetyLayer, primitives: WalkReachPrimitiv
     stepped, run = start_run(robot, hw, task.base_state, build, pacer, recorders, log)
     controller = stepped.walking if naive else stepped
     start = base_pose_xy_yaw(run.state.base_pos, run.state.base_quat_xyzw)
-    targets = DrawerTargets(start, float(run.state.base_pos[2]), task.distance, task.slot, task.jumps, geometry)
+    targets = DrawerTargets(lambda: controller.start_pose, float(run.state.base_pos[2]), task.distance, task.slot,
+                            task.jumps, geometry)
     if naive:
         commander = NaiveCommander(stepped, primitives, targets, log, speed=task.speed.scale)
     else:
