@@ -12,7 +12,11 @@ hand is corrected by its hand task (thesis 3.8: the hand reaches its target):
 - standing, the right hand blends to the object in the open drawer.
 
 A free hand's target is corrected by the low-passed error of the measured hand against the IK's
-reference hand (servo sag under the arm's weight, the base's lean), at most ``MAX_HAND_BIAS``.
+reference hand (servo sag under the arm's weight, the base's lean), at most ``MAX_HAND_BIAS``. The
+error is taken for such a slow offset only while the reference hand moves slower than
+``BIAS_SPEED``: in a reach the arm lags its reference (servo lag, command latency), and a bias that
+learned the lag would push the target ahead of the hand, the reference further from the arm, and
+the lag up, until the servos saturate.
 """
 
 from __future__ import annotations
@@ -36,6 +40,7 @@ GRIPPER_CLOSED = 0.05  # [rad] a measured gripper this near its closed target is
 MAX_PULL_SPEED = 0.4  # [m/s]
 HAND_BIAS_TIME = 0.5  # [s] time constant of the measured hand error fed back into a hand's target
 MAX_HAND_BIAS = 0.06  # [m] a slow kinematic offset, not the arm's lag in a fast motion
+BIAS_SPEED = 0.05  # [m/s] of the reference hand, below which its measured error is taken for an offset
 
 
 class DrawerHands:
@@ -47,6 +52,7 @@ class DrawerHands:
         self._closed = float(robot.upper[self._gripper]) - robot.config.position_margin
         self._bias = {s: np.zeros(3) for s in SIDES}
         self._last: dict[str, np.ndarray] = {}  # each hand's last target, or the IK's hand while free
+        self._reference: dict[str, np.ndarray] = {}  # each hand of the IK's reference at the last tick
         self._path_offset: dict[str, np.ndarray] = {}
         self._closing_since: float | None = None
         self.holding = False  # the gripper is measured closed at the handle
@@ -130,9 +136,13 @@ class DrawerHands:
             self._bias[side][:] = 0.0
             self._command(side, None)
             return
-        error = c.estimate.hands[side] - c.reference_hand(side)
-        bias = self._bias[side] + (error - self._bias[side]) * min(1.0, c.dt / HAND_BIAS_TIME)
-        self._bias[side] = bias * min(1.0, MAX_HAND_BIAS / max(float(np.linalg.norm(bias)), 1e-9))
+        reference = c.reference_hand(side)
+        before = self._reference.get(side, reference)
+        self._reference[side] = reference
+        if np.linalg.norm(reference - before) <= BIAS_SPEED * c.dt:
+            error = c.estimate.hands[side] - reference
+            bias = self._bias[side] + (error - self._bias[side]) * min(1.0, c.dt / HAND_BIAS_TIME)
+            self._bias[side] = bias * min(1.0, MAX_HAND_BIAS / max(float(np.linalg.norm(bias)), 1e-9))
         self._command(side, target - self._bias[side])
 
     def _command(self, side: str, target: np.ndarray | None) -> None:
