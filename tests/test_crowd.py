@@ -17,7 +17,9 @@ from robot_ctrl.crowd.gait_coupling import GaitCoupling
 def test_table_4_1_closed_forms_match_the_spectrum(topology, n):
     graph = CouplingGraph.named(topology, n)
     assert graph.connected
-    assert graph.lambda_plus == pytest.approx(graph.closed_form_lambda_plus(), abs=1e-9)
+    spectrum = graph.projected_eigenvalues  # numerical, from the dense Laplacian
+    assert graph.lambda_plus == pytest.approx(spectrum[0], abs=1e-9)  # closed form (Table 4.1)
+    assert graph.lambda_top == pytest.approx(spectrum[-1], abs=1e-9)
 
 
 def by_name(conditions):
@@ -187,3 +189,35 @@ def test_step_frequency_control_rate_is_tight_for_a_constant_profile_and_diverge
     unstable = run_group(GaitCoupling(graph, m_d=-0.5), duration=5.0, runs=10)
     assert not by_name(unstable.conditions)["step_frequency"].holds
     assert unstable.position_error[-1] > 10 * unstable.position_error[0]
+
+
+@pytest.mark.parametrize("topology", TOPOLOGIES)
+def test_a_named_graph_applies_its_laplacian_without_the_matrix(topology):
+    """Every named topology's L x, as the dense Laplacian gives it (all-to-all by w (N x − Σ x),
+    the others sparse), and its spectral figures in closed form."""
+    rng = np.random.default_rng(3)
+    for n in (2, 3, 8):
+        graph = CouplingGraph.named(topology, n, weight=0.7)
+        L = graph.laplacian
+        x = rng.normal(size=(n, 3))
+        np.testing.assert_allclose(graph.apply(x), L @ x, atol=1e-12)
+        np.testing.assert_allclose(graph.lambda_max, np.linalg.eigvalsh(L)[-1], atol=1e-12)
+        np.testing.assert_allclose(graph.scale, np.abs(L).max(), rtol=1e-12)
+        assert graph.symmetric and graph.connected
+
+
+def test_a_hundred_thousand_agents_are_certified_and_simulated_in_closed_form_and_sparse(capsys):
+    """A ring of 100,000 agents: its dense Laplacian would take 80 GB; the certificate comes from
+    Table 4.1's closed form (λ⁺ = 2 (1 − cos 2π/N)), the simulation from sparse products."""
+    n = 100_000
+    assert main(["crowd", "certify", "--graph", "ring", "--n", str(n), "--k", "1", "--md", "1", "--alpha", "2"]) == 1
+    out = capsys.readouterr().out
+    assert f"λ⁺ = {2 * (1 - np.cos(2 * np.pi / n)):.6g}" in out and "λ_max = 4" in out
+    assert "phase_coupling" in out and "hopf_diffusive" in out and "step_frequency" in out
+    graph = CouplingGraph.named("ring", n)
+    with pytest.raises(ValueError, match="dense Laplacian of 100000 agents"):
+        graph.laplacian
+    from robot_ctrl.crowd.hopf_network import simulate_crowd
+
+    out = simulate_crowd(GaitCoupling(graph, k=0.5, m_z=0.1, m_psi=0.5), 0.05, runs=1, dt=0.01)
+    assert out.phases.shape == (6, 1, n) and np.isfinite(out.z).all()

@@ -166,9 +166,12 @@ def _hopf(k: float, lam: float, method: str) -> Condition:
 
 def _leader(cfg: CouplingConfig) -> list[Condition]:
     graph, k = cfg.graph, cfg.k or 0.0
-    Ls = (graph.laplacian + graph.laplacian.T) / 2
-    lam_min = float(np.linalg.eigvalsh(k * Ls + cfg.alpha * np.eye(graph.n))[0])
-    out = [_rated("leader_group", "λ_min(k L_s + α I) > 1", lam_min - 1, "numerical eigenvalues", True)]
+    if graph.topology is not None:  # L_s's eigenvalues are 0 (along 1) and the projected ones
+        lam_min, how = cfg.alpha + min(0.0, k * graph.lambda_plus, k * graph.lambda_top), "closed form (Table 4.1)"
+    else:
+        Ls = (graph.laplacian + graph.laplacian.T) / 2
+        lam_min, how = float(np.linalg.eigvalsh(k * Ls + cfg.alpha * np.eye(graph.n))[0]), "numerical eigenvalues"
+    out = [_rated("leader_group", "λ_min(k L_s + α I) > 1", lam_min - 1, how, True)]
     if graph.topology == "all":
         out.append(_rated("leader_group_1perp", "k N w + α > 1 (thesis, followers' synchrony)",
                           k * graph.n * graph.weight + cfg.alpha - 1, "closed form, all-to-all", True))
@@ -176,7 +179,7 @@ def _leader(cfg: CouplingConfig) -> list[Condition]:
 
 
 def _profile_rate(graph: CouplingGraph, gain: float, g: np.ndarray, side: str) -> tuple[float, bool, str]:
-    rate, exact = profile_coupling_rate(graph.laplacian, gain, float(g.min()), float(g.max()), side)
+    rate, exact = profile_coupling_rate(graph, gain, float(g.min()), float(g.max()), side)
     how = (f"worst case over the {2 ** graph.n} vertices of g ∈ [min g, max g]^N" if exact
            else "Weyl: m (ḡ λ⁺ − Δg ‖L‖₂)")
     return rate, exact, how
@@ -193,8 +196,7 @@ def _step_frequency(cfg: CouplingConfig, lam: float, method: str, g: np.ndarray)
         rate, exact, how = _profile_rate(graph, m_d, g, "right")
         out = [_rated("step_frequency", "sup λ_max(−m_d V (L D_g)_s Vᵀ) < 0", rate, how, exact)]
         if graph.symmetric:  # the papers' closed-form sufficient conditions, for reference
-            eig = graph.projected_eigenvalues
-            a, b = eig[0] / eig[-1], g.min() / g.max()
+            a, b = graph.lambda_plus / graph.lambda_top, g.min() / g.max()
             weak = a - np.abs(g - g.mean()).max() / g.mean()
             strong = 1 - ((1 - a) ** 2 / (1 + a) ** 2 + (1 - b) ** 2 / (1 + b) ** 2)
             for name, statement, value, source in (

@@ -41,14 +41,18 @@ def phase_disagreement(phases: np.ndarray, adjacency: np.ndarray) -> np.ndarray:
     return np.imag(unit * (np.conj(unit) @ adjacency.T))
 
 
-def formation_error(z: np.ndarray, laplacian: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+def formation_error(z: np.ndarray, graph: CouplingGraph, offsets: np.ndarray) -> np.ndarray:
     """``L (z − o)`` along the last axis [m]."""
-    return (z - offsets) @ laplacian.T
+    return np.moveaxis(graph.apply(np.moveaxis(z - offsets, -1, 0)), 0, -1)
 
 
-def circular_mean(angles: np.ndarray) -> np.ndarray:
-    """χ = angle(Σ_i exp(i ψ_i)) over the last axis."""
-    return np.angle(np.exp(1j * angles).sum(axis=-1))
+def consensus_sin_cos(cos_psi: np.ndarray, sin_psi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """sin χ and cos χ of the circular mean χ = angle(Σ_i exp(i ψ_i)) over the last axis, from the
+    headings' cosines and sines (χ = 0 where the sum vanishes, as ``np.angle(0)``)."""
+    c, s = cos_psi.sum(axis=-1, keepdims=True), sin_psi.sum(axis=-1, keepdims=True)
+    norm = np.hypot(c, s)
+    none = norm == 0.0
+    return np.where(none, 0.0, s / np.where(none, 1.0, norm)), np.where(none, 1.0, c / np.where(none, 1.0, norm))
 
 
 @dataclass(frozen=True)
@@ -79,16 +83,18 @@ class GaitCoupling:
         """Gait frequencies ``φ̇_i`` [rad/s] (eqs. 4.28, 4.31)."""
         rate = omega0 - self.k * phase_disagreement(phases, self.adjacency)
         if self.m_d:
-            rate = rate - self.m_d * formation_error(z, self.graph.laplacian, self.offsets)
+            rate = rate - self.m_d * formation_error(z, self.graph, self.offsets)
         return rate
 
     def step_length_scales(self, z: np.ndarray) -> np.ndarray:
         """Step-length morphing ``μ_i`` (eq. 4.30), dimensionless."""
-        return -self.m_z * formation_error(z, self.graph.laplacian, self.offsets)
+        return -self.m_z * formation_error(z, self.graph, self.offsets)
 
     def heading_rates(self, headings: np.ndarray) -> np.ndarray:
         """``ψ̇_i`` [rad/s] of the heading consensus (eq. 4.33)."""
-        return self.m_psi * np.sin(circular_mean(headings)[..., None] - headings)
+        cos_psi, sin_psi = np.cos(headings), np.sin(headings)
+        sin_chi, cos_chi = consensus_sin_cos(cos_psi, sin_psi)
+        return self.m_psi * (sin_chi * cos_psi - cos_chi * sin_psi)  # sin(χ − ψ_i)
 
     def certify(self, g: np.ndarray, omega: float, spread: float = np.pi / 4, phases: str = "sine") -> list[Condition]:
         """The conditions that apply to these laws, with ``g`` = dz/dφ over a cycle [m/rad] and

@@ -22,7 +22,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import sparse
 
 from robot_ctrl.crowd.coupling_graph import CouplingGraph
 from robot_ctrl.crowd.gait_coupling import GaitCoupling
@@ -69,14 +68,9 @@ def simulate_crowd(coupling: GaitCoupling, duration: float, omega: float = 2 * n
     if dt is None:  # the fastest coupled mode of each law sets the step
         stiff = (abs(k) + abs(m_z) * 1.5 * omega * g.max() + abs(m_d) * g.max()) * graph.lambda_max
         dt = min(0.01, 1.0 / (stiff + omega + 2.0))
-    # Sparse graphs (ring, chain, star) are applied as sparse matrices: O(N) per product.
-    L = graph.laplacian
-    if np.count_nonzero(L) < 0.1 * n * n:
-        L = sparse.csr_array(L)
-
-    def laplacian_times(values):  # L applied along the agent axis of (runs, N, c)
+    def laplacian_times(values):  # L applied along the agent axis of (runs, N, c): O(N) for named graphs
         flat = np.ascontiguousarray(values.transpose(1, 0, 2)).reshape(n, -1)
-        return (L @ flat).reshape(n, runs, -1).transpose(1, 0, 2)
+        return graph.apply(flat).reshape(n, runs, -1).transpose(1, 0, 2)
     rng = np.random.default_rng(seed)
     radius = rng.uniform(0.5, 1.5, (runs, n))
     angle = rng.uniform(-np.pi, np.pi, (runs, n))
@@ -85,8 +79,8 @@ def simulate_crowd(coupling: GaitCoupling, duration: float, omega: float = 2 * n
     psi = rng.uniform(-heading_spread / 2, heading_spread / 2, (runs, n))
     p = np.stack([z * np.cos(psi), z * np.sin(psi)], axis=-1)
 
-    def g_at(phase):
-        return g[np.floor((phase % (2 * np.pi)) / (2 * np.pi) * bins).astype(int) % bins]
+    def g_at(phase):  # phase in [−π, π] (atan2): shifted by a whole period it truncates to its bin
+        return g.take((phase * (bins / (2 * np.pi)) + bins).astype(np.intp) % bins)
 
     def rates(osc, z, psi):
         # One product with L per stage: oscillator states and positions minus offsets stacked.

@@ -26,7 +26,7 @@ import itertools
 
 import numpy as np
 
-from robot_ctrl.crowd.coupling_graph import complement_basis
+from robot_ctrl.crowd.coupling_graph import CouplingGraph, complement_basis
 
 EXACT_UP_TO = 12  # parameters enumerated exactly (2^12 = 4096 vertices)
 
@@ -43,23 +43,20 @@ def projected_symmetric_max(J: np.ndarray) -> np.ndarray:
     return np.linalg.eigvalsh(V @ S @ V.T)[..., -1]
 
 
-def profile_coupling_rate(laplacian: np.ndarray, gain: float, g_min: float, g_max: float,
+def profile_coupling_rate(graph: CouplingGraph, gain: float, g_min: float, g_max: float,
                           side: str) -> tuple[float, bool]:
     """``−sup λ_max(V J_s Vᵀ)`` over g ∈ [g_min, g_max]^N for ``J = −gain L D_g`` (``side="right"``,
     step frequency) or ``J = −gain D_g L`` (``"left"``, step length), and whether it is exact."""
     if side not in ("left", "right"):
         raise ValueError(f"side = {side!r} must be 'left' or 'right'")
-    n = laplacian.shape[0]
-    if n <= EXACT_UP_TO:
-        G = vertices(n, g_min, g_max)
+    if graph.n <= EXACT_UP_TO:
+        laplacian = graph.laplacian
+        G = vertices(graph.n, g_min, g_max)
         J = -gain * (laplacian[None] * G[:, None, :] if side == "right" else G[:, :, None] * laplacian[None])
         return -float(projected_symmetric_max(J).max()), True
-    Ls = (laplacian + laplacian.T) / 2
-    V = complement_basis(n)
-    eig = np.linalg.eigvalsh(V @ Ls @ V.T)
     centre, radius = (g_min + g_max) / 2, (g_max - g_min) / 2
-    lam = eig[0] if gain >= 0 else eig[-1]  # min over λ of gain·centre·λ
-    return gain * centre * float(lam) - abs(gain) * radius * float(np.linalg.norm(laplacian, 2)), False
+    lam = graph.extreme_eigenvalue(gain)  # min over λ of gain·centre·λ
+    return gain * centre * lam - abs(gain) * radius * graph.norm2, False
 
 
 def sine_coupling_rate(adjacency: np.ndarray, gain: float, spread: float) -> tuple[float, str]:
