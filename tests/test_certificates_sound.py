@@ -247,3 +247,46 @@ def test_certify_needs_a_gain_and_the_low_pass_needs_md(capsys):
     assert main(["crowd", "certify", "--graph", "ring", "--n", "5", "--k", "1", "--lowpass", "2"]) == 2
     err = capsys.readouterr().err
     assert "--lowpass is the step-frequency coupling's position filter: it needs --md" in err
+
+
+def test_the_walking_groups_step_length_certificate_covers_every_gait_frequency_the_bridge_allows():
+    """Each robot's gait frequency may be anywhere in ω₀/1.25 .. ω₀/0.8 (the bridge's time-scale
+    clamp): the step-length Jacobian −m_z D_ω D_g L over that box of ω_i g_i, brute-forced here at
+    its 256 corners for a chain of 8 with Talos's profile, is what is certified (it does not
+    contract: certifying at the lowest frequency alone said it did, at 0.0101 1/s)."""
+    from robot_ctrl.crowd.gait_bridge import GaitBridge
+    from robot_ctrl.crowd.gait_coupling import GaitCoupling
+    from robot_ctrl.crowd.gait_profile import GaitProfile
+    from robot_ctrl.crowd.group_walk_settings import GroupWalk, certified_coupling
+
+    settings = GroupWalk(n=8, graph="chain")
+    bridge = GaitBridge(0.8, settings.speed)
+    profile = GaitProfile.load_or_constant("talos", bridge.omega0, settings.speed)
+    graph = CouplingGraph.named("chain", 8)
+    lo, hi = bridge.omega0 / 1.25 * profile.g.min(), bridge.omega0 / 0.8 * profile.g.max()
+    V = basis(8)
+    worst = max(top_eigenvalue(-settings.m_z * np.diag(h) @ graph.laplacian, V)
+                for h in itertools.product((lo, hi), repeat=8))
+    law = GaitCoupling(graph, k=settings.k, m_z=settings.m_z, m_psi=settings.m_psi)
+    found = {c.name: c for c in law.certify(profile.g, bridge.omega0 / 1.25, omega_max=bridge.omega0 / 0.8)}
+    assert found["step_length"].margin == pytest.approx(-worst, abs=1e-9) and worst > 0.01
+    assert not found["step_length"].holds
+    with pytest.raises(ValueError, match="step_length"):
+        certified_coupling("talos", settings, 0.8, lambda line: None)
+
+
+def test_the_lowpass_line_holds_only_where_the_papers_argument_does():
+    """Paper 003's low-pass argument drops off-diagonal blocks ±(m_d/α) V L D_g Vᵀ from the
+    symmetric part, which vanish for all-to-all coupling or a constant profile only: a chain of 8
+    with Talos's profile is not covered (its unfiltered step-frequency condition holds, the line
+    does not), the same chain with a constant profile and all-to-all with Talos's profile are."""
+    from robot_ctrl.crowd.gait_profile import GaitProfile
+
+    g = GaitProfile.load_or_constant("talos", np.pi / 0.8, 0.2).g
+    chain = CouplingGraph.named("chain", 8)
+    V = basis(8)
+    asymmetric = V @ chain.laplacian @ np.diag(g[:8]) @ V.T
+    assert np.abs(asymmetric - asymmetric.T).max() > 1e-3  # the blocks the argument drops are not zero
+    for graph, profile, covered in ((chain, g, False), (chain, np.full(4, 0.2), True), (CouplingGraph.named("all", 8), g, True)):
+        found = {c.name: c for c in certify(CouplingConfig(graph, m_d=1.0, lowpass=100.0, g=profile))}
+        assert found["step_frequency"].holds and found["lowpass_filter"].holds == covered

@@ -26,11 +26,16 @@ profile (forward speed over a cycle, normalized or not), given as samples over o
   (exact up to 12 agents, a Weyl bound above). For symmetric graphs the papers' closed forms are
   listed beside it: the weak condition ``λ⁺_min / λ⁺_max > max|g − ḡ| / ḡ`` and the strong one
   (thesis Theorem 6) ``(1 − a)²/(1 + a)² + (1 − b)²/(1 + b)² < 1``, a = λ⁺_min/λ⁺_max, b = min g / max g.
-- ``lowpass_filter`` (journal/paper 003): with ``ż = −α z + G(φ)``, ``α > sqrt(m_d max g λ_max(L_s))``.
-- ``step_length`` (scenario 3): ``ż = ω g(φ)(1 − m_z (L z + c))``, Jacobian ``−m_z ω D_g L`` with ω
-  the lowest gait frequency (``omega``, 1 by default as in the thesis): all-to-all ``ρ_z = m_z ω min g
-  λ⁺`` (exact), other graphs the worst case over the g box as for the step frequency; with phase
-  coupling the overall rate is ``min(ρ_φ, ρ_z)``.
+- ``lowpass_filter`` (journal/paper 003): with ``ż = −α z + G(φ)``, the paper's two conditions: the
+  unfiltered step-frequency condition, and ``α²/m_d > ½ λ_max(V B Vᵀ)``, bounded by ``α > sqrt(m_d
+  max g ‖L‖₂)`` (the paper's λ_max(L_s) for a symmetric graph); only where the paper's argument
+  holds (it drops off-diagonal blocks that vanish for all-to-all coupling or a constant profile on a
+  symmetric graph), violated elsewhere.
+- ``step_length`` (scenario 3): ``ż = ω g(φ)(1 − m_z (L z + c))``, Jacobian ``−m_z D_ω D_g L`` with
+  each agent's gait frequency in [``omega``, ``omega_max``] (1 by default as in the thesis; a bridge
+  to walking robots lets each run in a range): all-to-all ``ρ_z = m_z ω min g λ⁺`` (exact), other
+  graphs the worst case over the box of ω_i g_i as for the step frequency; with phase coupling the
+  overall rate is ``min(ρ_φ, ρ_z)``.
 - ``heading_consensus`` (journal eq. 12): ``ψ̇_i = ω_i (sin(χ − ψ_i) + g_ψ)`` contracts for any
   consensus signal χ while |χ − ψ_i| < π/2 (Jacobian −ω cos(χ − ψ_i)); over a heading spread Δ < π/2
   the rate is ``m_ψ ω cos Δ``.
@@ -95,6 +100,7 @@ class CouplingConfig:
     heading_spread: float = np.pi / 4  # [rad] largest |χ − ψ_i| (or coupled |ψ_i − ψ_j|) the sine certificates cover
     g: np.ndarray = field(default_factory=lambda: np.ones(1))  # speed profile samples over a cycle (> 0)
     omega: float = 1.0  # [rad/s] lowest gait frequency (step-length rate)
+    omega_max: float | None = None  # [rad/s] highest gait frequency an agent may run at; None: omega
 
     def __post_init__(self):
         for name in ("k", "alpha", "m_d", "m_z", "m_psi", "k_sine", "lowpass"):
@@ -106,6 +112,8 @@ class CouplingConfig:
             raise ValueError("g (speed profile) must be a 1-D array of finite values > 0")
         if not (np.isfinite(self.omega) and self.omega > 0):
             raise ValueError(f"omega = {self.omega} rad/s must be > 0")
+        if self.omega_max is not None and not (np.isfinite(self.omega_max) and self.omega_max >= self.omega):
+            raise ValueError(f"omega_max = {self.omega_max} rad/s must be ≥ omega = {self.omega} rad/s")
         if not 0 < self.heading_spread < np.pi / 2:
             raise ValueError(f"heading_spread = {self.heading_spread} must be in (0, π/2) rad")
 
@@ -206,24 +214,36 @@ def _step_frequency(cfg: CouplingConfig, lam: float, method: str, g: np.ndarray)
                 out.append(Condition(name, statement, holds, float(value), rate if holds and rate > 0 else None,
                                      f"closed form ({source}); rate from the worst case above", exact))
     if cfg.lowpass is not None:
-        bound = float(np.sqrt(max(m_d, 0.0) * g.max() * graph.lambda_max))
-        out.append(Condition("lowpass_filter", "α > sqrt(m_d max g λ_max(L_s))", m_d > 0 and cfg.lowpass > bound,
-                             cfg.lowpass - bound, None, "closed form (paper 003)", False))
+        # Paper 003's argument drops the transformed Jacobian's off-diagonal blocks ±(m_d/α) V L D_g Vᵀ
+        # from its symmetric part, which holds where V L D_g Vᵀ is symmetric for every g: all-to-all
+        # coupling (V L D_g Vᵀ = N w V D_g Vᵀ), or a constant profile on a symmetric graph. There it
+        # needs the unfiltered step-frequency condition and α²/m_d > ½ λ_max(V B Vᵀ) ≤ max g ‖L‖₂.
+        bound = float(np.sqrt(max(m_d, 0.0) * g.max() * graph.norm2))
+        covered = graph.topology == "all" or (graph.symmetric and g.min() == g.max())
+        holds = covered and m_d > 0 and out[0].holds and cfg.lowpass > bound
+        how = "closed form (paper 003)" + ("" if covered else "; its argument covers all-to-all coupling, or a constant "
+                                           "profile on a symmetric graph, only: not this one")
+        out.append(Condition("lowpass_filter", "step_frequency holds, α > sqrt(m_d max g ‖L‖₂)", holds,
+                             cfg.lowpass - bound, None, how, False))
     return out
 
 
 def _step_length(cfg: CouplingConfig, lam: float, g: np.ndarray) -> Condition:
-    """ż = ω g(φ)(1 − m_z (L z + c)): J = −m_z ω D_g L with ω the lowest gait frequency; with phase
-    coupling the overall rate is min(ρ_φ, ρ_z)."""
+    """ż_i = ω_i g(φ_i)(1 − m_z (L z + c)_i): J = −m_z D_h L with ``h_i = ω_i g(φ_i)``, each agent's
+    gait frequency anywhere in [ω, ω_max] and its profile value in [min g, max g], so h in the box
+    [ω min g, ω_max max g]^N (every point of it reachable: the worst case over it is exact); with
+    phase coupling the overall rate is min(ρ_φ, ρ_z)."""
     graph = cfg.graph
-    gain = cfg.m_z * cfg.omega
-    if graph.topology == "all":  # every eigenvalue is N w; a negative gain meets the largest g
-        rate, exact, how = gain * (g.min() if gain >= 0 else g.max()) * lam, True, "closed form, all-to-all: ω m_z min g λ⁺"
+    h = np.array([cfg.omega * g.min(), (cfg.omega_max or cfg.omega) * g.max()])
+    if graph.topology == "all":  # every eigenvalue is N w; a negative gain meets the largest h
+        rate = cfg.m_z * (h[0] if cfg.m_z >= 0 else h[1]) * lam
+        exact, how = True, "closed form, all-to-all: m_z ω min g λ⁺"
     else:
-        rate, exact, how = _profile_rate(graph, gain, g, "left")
+        rate, exact, how = _profile_rate(graph, cfg.m_z, h, "left")
+        how = how.replace("g ∈ [min g, max g]", "ω g ∈ [ω min g, ω_max max g]")
     if cfg.k is not None and cfg.k > 0 and rate > 0:
         rate, how = min(rate, cfg.k * lam), f"{how}; rate min(ρ_φ, ρ_z)"
-    return _rated("step_length", "sup λ_max(−m_z ω V (D_g L)_s Vᵀ) < 0", rate, how, exact)
+    return _rated("step_length", "sup λ_max(−m_z V (D_ω D_g L)_s Vᵀ) < 0", rate, how, exact)
 
 
 def _schoener_dose(cfg: CouplingConfig, lam: float, method: str) -> Condition:

@@ -96,9 +96,10 @@ class GaitCoupling:
         sin_chi, cos_chi = consensus_sin_cos(cos_psi, sin_psi)
         return self.m_psi * (sin_chi * cos_psi - cos_chi * sin_psi)  # sin(χ − ψ_i)
 
-    def certify(self, g: np.ndarray, omega: float, spread: float = np.pi / 4, phases: str = "sine") -> list[Condition]:
+    def certify(self, g: np.ndarray, omega: float, spread: float = np.pi / 4, phases: str = "sine",
+                omega_max: float | None = None) -> list[Condition]:
         """The conditions that apply to these laws, with ``g`` = dz/dφ over a cycle [m/rad] and
-        ``omega`` the lowest gait frequency [rad/s]. ``phases`` says how the step phases are coupled:
+        ``omega`` .. ``omega_max`` the gait frequencies an agent may run at [rad/s]. ``phases`` says how the step phases are coupled:
         ``"sine"`` (these laws: ``phase_coupling``, the linearization at synchrony with rate k λ⁺, and
         ``schoener_dose``, the sine coupling inside a phase spread ``spread``) or ``"hopf"``
         (oscillators coupled through their (x, y) state: ``hopf_diffusive`` and ``phase_coupling``)."""
@@ -109,6 +110,6 @@ class GaitCoupling:
             return v if v else None
         cfg = CouplingConfig(self.graph, k=active(self.k), k_sine=active(self.k) if phases == "sine" else None,
                              m_d=active(self.m_d), m_z=active(self.m_z), m_psi=active(self.m_psi),
-                             g=np.asarray(g, dtype=float), omega=omega, heading_spread=spread)
+                             g=np.asarray(g, dtype=float), omega=omega, omega_max=omega_max, heading_spread=spread)
         conditions = certify(cfg)
         return [c for c in conditions if c.name != "hopf_diffusive"] if phases == "sine" else conditions

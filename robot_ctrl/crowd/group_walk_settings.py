@@ -41,11 +41,12 @@ class GroupWalk:
 
 def certified_coupling(robot_name: str, g: GroupWalk, step_period: float, log: Callable[[str], None]):
     """The coupling laws, the gait bridge and the certificate, checked before the group moves (the
-    slowest gait the bridge allows bounds ω); refuses a violated certificate unless allowed."""
+    gait frequencies the bridge allows bound ω); refuses a violated certificate unless allowed."""
     coupling = GaitCoupling(CouplingGraph.named(g.graph, g.n), k=g.k, m_z=g.m_z, m_psi=g.m_psi)
     bridge = GaitBridge(step_period, g.speed)
     profile = GaitProfile.load_or_constant(robot_name, bridge.omega0, g.speed)
-    conditions = coupling.certify(profile.g, bridge.omega0 / bridge.time_scale_range[1])
+    lo, hi = bridge.time_scale_range  # each robot's step period may stretch anywhere in it
+    conditions = coupling.certify(profile.g, bridge.omega0 / hi, omega_max=bridge.omega0 / lo)
     for c in conditions:
         log(c.line())
     refuse_violated(conditions, g.allow_unstable, log)
