@@ -176,9 +176,49 @@ def test_the_audit_command(capsys):
     rows = {line.split()[0]: line.split() for line in capsys.readouterr().out.splitlines()[1:]}
     assert set(rows) == {"phase_coupling", "hopf_diffusive", "step_frequency", "step_length", "schoener_dose"}
     assert all(row[-1] == "0" for row in rows.values())  # no optimistic certificate
-    assert rows["step_frequency"][2] == rows["step_frequency"][1] and float(rows["step_frequency"][3]) == 1.0
+    assert rows["step_frequency"][3] == rows["step_frequency"][1] and float(rows["step_frequency"][4]) == 1.0
     assert main(["crowd", "audit", "--graphs", "0"]) == 2
     assert "--graphs 0 is outside the allowed range [1, 100000]" in capsys.readouterr().err
+
+
+def test_above_twelve_agents_the_relaxation_certifies_what_contracts(capsys):
+    """13 to 16 agents: no corner enumeration; the relaxation certifies every gait-profile case the
+    sampled worst case says contracts (Weyl's bound: a third), and is never optimistic."""
+    assert main(["crowd", "audit", "--graphs", "30", "--min-n", "13", "--max-n", "16"]) == 0
+    rows = {line.split()[0]: [int(v) for v in line.split()[1:4]] + [int(line.split()[-1])]
+            for line in capsys.readouterr().out.splitlines()[1:]}
+    for name in ("step_frequency", "step_length", "schoener_dose"):
+        holds, contracting, exact, optimistic = rows[name]
+        assert optimistic == 0 and exact == 0 and holds >= 0.9 * contracting > 5, (name, rows[name])
+
+
+def test_the_relaxation_is_within_a_thousandth_of_the_corners_and_never_above():
+    """Where the corners can be enumerated (8-12 agents), the relaxation used above 12 against
+    the exact worst case, both gait-profile sides, both signs."""
+    import robot_ctrl.crowd.worst_case as worst_case
+
+    rng = np.random.default_rng(11)
+    for trial in range(12):
+        graph = CouplingGraph.from_adjacency(random_adjacency(rng, int(rng.integers(8, 13)), bool(trial % 2)))
+        gain, side = (1.0 if trial % 3 else -0.5), ("right", "left")[trial % 2]
+        exact, is_exact = worst_case.profile_coupling_rate(graph, gain, 0.7, 1.3, side)
+        limit, worst_case.EXACT_UP_TO = worst_case.EXACT_UP_TO, 0
+        try:
+            relaxed, relaxed_exact = worst_case.profile_coupling_rate(graph, gain, 0.7, 1.3, side)
+        finally:
+            worst_case.EXACT_UP_TO = limit
+        assert is_exact and not relaxed_exact
+        assert exact - 1e-3 * max(1.0, abs(exact)) <= relaxed <= exact + 1e-12, (trial, exact, relaxed)
+    for trial in range(6):  # the sine coupling's box of coupled cosines, against its corners
+        n = int(rng.integers(4, 6))  # at most 10 coupled pairs: the corners are enumerated
+        A = random_adjacency(rng, n, symmetric=False)
+        corners, _ = worst_case.sine_coupling_rate(A, 1.0 if trial % 2 else -1.0, 0.9)
+        limit, worst_case.EXACT_UP_TO = worst_case.EXACT_UP_TO, 0
+        try:
+            relaxed, how = worst_case.sine_coupling_rate(A, 1.0 if trial % 2 else -1.0, 0.9)
+        finally:
+            worst_case.EXACT_UP_TO = limit
+        assert "relaxation" in how and corners - 1e-3 * max(1.0, abs(corners)) <= relaxed <= corners + 1e-12
 
 
 def directed_with_negative_lambda_plus(rng, n):

@@ -66,10 +66,11 @@ def _crowd_audit(args: argparse.Namespace) -> int:
     check_ranges("crowd audit", args)
     if args.min_n > args.max_n:
         raise ConfigError(f"crowd audit: --min-n {args.min_n} must not exceed --max-n {args.max_n}")
-    print("certificate     holds  exact  certified/worst case: median    min    max  optimistic")
+    print("certificate     holds  contracting  exact  certified/worst case: median    min    max  optimistic")
     for name, row in audit(args.graphs, (args.min_n, args.max_n), args.seed).items():
         stats = "  ".join(f"{row[k]:6.3f}" if row[k] is not None else "     -" for k in ("median", "min", "max"))
-        print(f"{name:15s} {row['holds']:5d}  {row['exact']:5d}  {' ' * 22}{stats}  {row['optimistic']:10d}")
+        print(f"{name:15s} {row['holds']:5d}  {row['contracting']:11d}  {row['exact']:5d}  {' ' * 22}{stats}  "
+              f"{row['optimistic']:10d}")
     return 0
 
 

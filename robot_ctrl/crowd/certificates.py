@@ -23,7 +23,7 @@ profile (forward speed over a cycle, normalized or not), given as samples over o
 - ``step_frequency`` (scenario 2, conference eq. 2): ``φ̇ = ω₀ 1 − m_d (L G(φ) + c)``. All-to-all:
   rate ``m_d min g λ⁺`` for m_d > 0, g > 0 (exact). Other graphs: the projected symmetrized Jacobian
   ``−m_d V (L D_g)_s Vᵀ`` over every g_i ∈ [min g, max g], its worst case at a vertex of that box
-  (exact up to 12 agents, a Weyl bound above). For symmetric graphs the papers' closed forms are
+  (exact up to 12 agents, a relaxation above that is never optimistic, ``crowd.worst_case``). For symmetric graphs the papers' closed forms are
   listed beside it: the weak condition ``λ⁺_min / λ⁺_max > max|g − ḡ| / ḡ`` and the strong one
   (thesis Theorem 6) ``(1 − a)²/(1 + a)² + (1 − b)²/(1 + b)² < 1``, a = λ⁺_min/λ⁺_max, b = min g / max g.
 - ``lowpass_filter`` (journal/paper 003): with ``ż = −α z + G(φ)``, the paper's two conditions: the
@@ -49,7 +49,8 @@ profile (forward speed over a cycle, normalized or not), given as samples over o
   Laplacian with non-negative weights, so the rate inside a spread Δ is at least ``k λ⁺ cos Δ``
   (our derivation from the thesis's Jacobian; a bound). Asymmetric graphs: the projected symmetrized
   Jacobian with every coupled cosine anywhere in [cos Δ, 1], a box that contains every angle set of
-  spread ≤ Δ (a bound: vertex enumeration up to 12 coupled pairs, a Weyl bound above). Outside the region the potential
+  spread ≤ Δ (a bound: vertex enumeration up to 12 coupled pairs, the relaxation of
+  ``crowd.worst_case`` above). Outside the region the potential
   U = −k Σ A_ij cos(ψ_i − ψ_j) (eq. 4.40) still decreases: convergence without a guaranteed rate.
 """
 
@@ -61,7 +62,7 @@ from typing import Callable
 import numpy as np
 
 from robot_ctrl.crowd.coupling_graph import CouplingGraph
-from robot_ctrl.crowd.worst_case import profile_coupling_rate, sine_coupling_rate
+from robot_ctrl.crowd.worst_case import RELAXED_UP_TO, profile_coupling_rate, sine_coupling_rate
 
 
 @dataclass(frozen=True)
@@ -189,6 +190,8 @@ def _leader(cfg: CouplingConfig) -> list[Condition]:
 def _profile_rate(graph: CouplingGraph, gain: float, g: np.ndarray, side: str) -> tuple[float, bool, str]:
     rate, exact = profile_coupling_rate(graph, gain, float(g.min()), float(g.max()), side)
     how = (f"worst case over the {2 ** graph.n} vertices of g ∈ [min g, max g]^N" if exact
+           else "relaxation over g ∈ [min g, max g]^N (arithmetic-geometric mean per agent, its multipliers "
+                "minimized), at least Weyl's m (ḡ λ⁺ − Δg ‖L‖₂)" if graph.n <= RELAXED_UP_TO
            else "Weyl: m (ḡ λ⁺ − Δg ‖L‖₂)")
     return rate, exact, how
 

@@ -6,8 +6,14 @@ for every p in a box" holds with rate ``−sup_p λ_max(V J(p)_s Vᵀ)``. When J
 ``λ_max`` of the (symmetric, affine in p) matrix is a convex function of p (a maximum of linear
 functions ``uᵀ M(p) u`` over unit vectors u), so its supremum over the box is attained at a
 vertex: enumerating the ``2^m`` vertices gives the worst case exactly (``EXACT_UP_TO`` parameters).
-Above that, Weyl's inequality ``λ_max(A + B) ≤ λ_max(A) + ‖B‖₂`` around the box centre gives a
-bound that is never optimistic (``[bound]``).
+Above that, every parameter of these Jacobians moves a rank-two term: ``M(δ) = M₀ + Σ_i δ_i s (a_i b_iᵀ
++ b_i a_iᵀ)/2`` with |δ_i| ≤ r_i. For a unit x the perturbation is ``s Σ δ_i (a_iᵀx)(b_iᵀx) ≤ |s| Σ r_i
+|a_iᵀx| |b_iᵀx| ≤ |s|/2 Σ r_i (t_i (a_iᵀx)² + (b_iᵀx)²/t_i)`` for any t > 0 (the arithmetic-geometric
+mean inequality), so ``λ_max(M₀ + |s|/2 Σ r_i (t_i a_i a_iᵀ + b_i b_iᵀ/t_i))`` bounds the supremum for
+every t: a bound that is never optimistic (``[bound]``, our derivation), minimized over t (convex in
+log t). On the graphs up to 12 agents where both are computed it is within 1e-3 of the exact worst
+case (``tests/test_certificates_sound.py``). Above ``RELAXED_UP_TO`` agents, Weyl's inequality
+``λ_max(A + B) ≤ λ_max(A) + ‖B‖₂`` around the box centre (closed forms for named graphs).
 
 The two Jacobians of the gait couplings (conference paper eq. 2, thesis 4.4.2), with g_i ∈
 [g_min, g_max] the gait profile of agent i (agents at different phases):
@@ -25,10 +31,12 @@ from __future__ import annotations
 import itertools
 
 import numpy as np
+from scipy import optimize
 
 from robot_ctrl.crowd.coupling_graph import CouplingGraph, complement_basis
 
 EXACT_UP_TO = 12  # parameters enumerated exactly (2^12 = 4096 vertices)
+RELAXED_UP_TO = 200  # agents: above, Weyl's bound (the relaxation costs an O(N³) eigensolve per iteration)
 
 
 def vertices(m: int, low: float, high: float) -> np.ndarray:
@@ -41,6 +49,23 @@ def projected_symmetric_max(J: np.ndarray) -> np.ndarray:
     V = complement_basis(J.shape[-1])
     S = (J + np.swapaxes(J, -1, -2)) / 2
     return np.linalg.eigvalsh(V @ S @ V.T)[..., -1]
+
+
+def rank_two_box_sup(base: np.ndarray, a: np.ndarray, b: np.ndarray, radius: np.ndarray, s: float) -> float:
+    """An upper bound on ``sup λ_max(base + Σ_i δ_i s (a_i b_iᵀ + b_i a_iᵀ)/2)`` over |δ_i| ≤ radius_i
+    (``a``, ``b``: (m, d)): ``λ_max(base + |s|/2 Σ r_i (t_i a_i a_iᵀ + b_i b_iᵀ/t_i))`` at the t that
+    L-BFGS-B finds (module docstring; any t gives a bound)."""
+    outer_a, outer_b = np.einsum("mi,mj->mij", a, a), np.einsum("mi,mj->mij", b, b)
+    weight = abs(s) / 2 * radius
+
+    def bound(log_t):
+        t = np.exp(log_t)
+        values, vectors = np.linalg.eigh(base + np.tensordot(weight * t, outer_a, 1) + np.tensordot(weight / t, outer_b, 1))
+        top = vectors[:, -1]
+        return values[-1], weight * (t * (a @ top) ** 2 - (b @ top) ** 2 / t)
+    start = np.log(np.maximum(np.linalg.norm(b, axis=1), 1e-12) / np.maximum(np.linalg.norm(a, axis=1), 1e-12))
+    found = optimize.minimize(bound, start, jac=True, method="L-BFGS-B", options={"maxiter": 300})
+    return float(min(bound(found.x)[0], bound(start)[0]))
 
 
 def profile_coupling_rate(graph: CouplingGraph, gain: float, g_min: float, g_max: float,
@@ -56,7 +81,15 @@ def profile_coupling_rate(graph: CouplingGraph, gain: float, g_min: float, g_max
         return -float(projected_symmetric_max(J).max()), True
     centre, radius = (g_min + g_max) / 2, (g_max - g_min) / 2
     lam = graph.extreme_eigenvalue(gain)  # min over λ of gain·centre·λ
-    return gain * centre * lam - abs(gain) * radius * graph.norm2, False
+    weyl = gain * centre * lam - abs(gain) * radius * graph.norm2
+    if graph.n > RELAXED_UP_TO:
+        return weyl, False
+    laplacian, V = graph.laplacian, complement_basis(graph.n)
+    J0 = -gain * centre * laplacian
+    # ∂J/∂g_i = −gain l e_iᵀ (right: l the column i of L) or −gain e_i lᵀ (left: l the row i).
+    a = (V @ laplacian).T if side == "right" else (V @ laplacian.T).T
+    sup = rank_two_box_sup(V @ ((J0 + J0.T) / 2) @ V.T, a, V.T, np.full(graph.n, radius), -gain)
+    return max(-sup, weyl), False
 
 
 def sine_coupling_rate(adjacency: np.ndarray, gain: float, spread: float) -> tuple[float, str]:
@@ -78,10 +111,13 @@ def sine_coupling_rate(adjacency: np.ndarray, gain: float, spread: float) -> tup
         return (-float(projected_symmetric_max(-gain * L).max()),
                 f"the {len(corners)} vertices of the box of coupled cosines [cos Δ, 1]")
     L = np.diag(adjacency.sum(axis=1)) - adjacency
-    Ls = (L + L.T) / 2
+    centre, radius = (1 + low) / 2, (1 - low) / 2
     V = complement_basis(n)
-    eig = np.linalg.eigvalsh(V @ Ls @ V.T)
-    lam = float(eig[0] if gain >= 0 else eig[-1])  # min over λ of k·cos Δ·λ
-    # L(W) = cos Δ L + L(A ∘ E), 0 ≤ E ≤ 1 − cos Δ entrywise: ‖L(A ∘ E)‖₂ ≤ (1 − cos Δ) ‖|L|‖₂.
-    return (gain * low * lam - abs(gain) * (1 - low) * float(np.linalg.norm(np.abs(L), 2)),
-            "Weyl: k cos Δ λ − |k| (1 − cos Δ) ‖|L|‖₂ (λ: λ⁺ for k ≥ 0, the largest for k < 0)")
+    J0 = -gain * centre * L
+    # ∂L(W)/∂c_p = (A_ij e_i − A_ji e_j)(e_i − e_j)ᵀ for the pair p = {i, j}.
+    u, d = np.zeros((len(pairs), n)), np.zeros((len(pairs), n))
+    for p, (i, j) in enumerate(pairs):
+        u[p, i], u[p, j], d[p, i], d[p, j] = adjacency[i, j], -adjacency[j, i], 1.0, -1.0
+    sup = rank_two_box_sup(V @ ((J0 + J0.T) / 2) @ V.T, u @ V.T, d @ V.T, np.full(len(pairs), radius), -gain)
+    return (-sup, f"relaxation over the box of the {len(pairs)} coupled cosines [cos Δ, 1] (arithmetic-geometric "
+                  "mean per cosine, its multipliers minimized)")
