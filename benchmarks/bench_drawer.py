@@ -1,19 +1,26 @@
 """The drawer task's speed: the whole loop's real-time factor (synthesis → WPG → dynamic filter
 `full` in its worker → IK → MuJoCo in its robot process) on one drawer run, and the synthesis's own
-tick inside it (each ``Synthesizer.step`` of that run timed), with the tick against the 5 ms period.
+tick inside it (each ``Synthesizer.step`` of that run timed), with the tick against the 5 ms period,
+and the physics of the drawer scene alone (the robot standing before the cabinet, in its own
+process) for the ratio of the two.
 
-Run: ``python benchmarks/bench_drawer.py [DISTANCE]`` (default 2.0 m, slot front_left).
+Run: ``python benchmarks/bench_drawer.py [--distance D] [--json]`` (default 2.0 m, slot front_left).
 """
 
 from __future__ import annotations
 
-import sys
+import argparse
+import functools
+import json
 import time
 
 import numpy as np
+from bench_loop import physics_only_rtf
 
 from robot_ctrl.hw.drawer_cabinet import DrawerPlacement
 from robot_ctrl.hw.hardware import open_hardware
+from robot_ctrl.hw.mujoco_backend import MujocoBackend
+from robot_ctrl.hw.robot_process import RobotProcess
 from robot_ctrl.modes import FilterMode
 from robot_ctrl.robot import load_robot
 from robot_ctrl.scenarios.drawer import run_drawer
@@ -23,7 +30,11 @@ from robot_ctrl.synthesis.synthesizer import Synthesizer
 
 
 def main() -> None:
-    distance = float(sys.argv[1]) if len(sys.argv) > 1 else 2.0
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--distance", type=float, default=2.0)
+    parser.add_argument("--json", action="store_true", help="print one JSON object as the last line")
+    args = parser.parse_args()
+    distance = args.distance
     robot = load_robot("talos")
     primitives = load_primitives(robot)
     ticks = []
@@ -45,6 +56,13 @@ def main() -> None:
           f"{report['rtf']:.2f} (loop and physics together; success {report['success']})")
     print(f"synthesis tick: median {np.median(us):.0f} us, p99 {np.percentile(us, 99):.0f} us over {len(us)} "
           f"ticks = {np.median(us) / 5000:.1%} of the 5 ms control period")
+    scene = RobotProcess(functools.partial(MujocoBackend, robot, prop=DrawerPlacement(distance, "front_left")), robot.nj)
+    physics = physics_only_rtf(robot, scene)
+    print(f"physics only (the drawer scene, its own process): real-time factor {physics:.1f}x; "
+          f"loop / physics: {report['rtf'] / physics:.2f}")
+    if args.json:
+        print(json.dumps({"rtf_loop": round(report["rtf"], 3), "rtf_physics_only": round(physics, 3),
+                          "ratio_to_physics": round(report["rtf"] / physics, 3)}))
 
 
 if __name__ == "__main__":

@@ -13,7 +13,9 @@ own. Run: ``python benchmarks/bench_loop.py``.
 
 from __future__ import annotations
 
+import argparse
 import functools
+import json
 import time
 from collections import defaultdict
 
@@ -62,6 +64,9 @@ def physics_only_rtf(robot, hw, seconds: float = 5.0) -> float:
 
 
 def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--json", action="store_true", help="print one JSON object as the last line")
+    args = parser.parse_args()
     robot = load_robot("talos")
     timer = StageTimer()
     robot_process = RobotProcess(functools.partial(MujocoBackend, robot), robot.nj)
@@ -93,6 +98,10 @@ def main() -> None:
     inline = physics_only_rtf(robot, MujocoBackend(robot))
     remote = physics_only_rtf(robot, RobotProcess(functools.partial(MujocoBackend, robot), robot.nj))
     print(f"physics only (standing): real-time factor {inline:.1f}x in this process, {remote:.1f}x in its own")
+    print(f"loop / physics in its own process: {report['rtf'] / remote:.2f}")
+    if args.json:
+        print(json.dumps({"rtf_loop": round(report["rtf"], 3), "rtf_physics_only": round(remote, 3),
+                          "ratio_to_physics": round(report["rtf"] / remote, 3)}))
 
 
 if __name__ == "__main__":

@@ -13,6 +13,7 @@ Prints the median and p99 tick time and the ratio mink / robot_ctrl (mink is the
 from __future__ import annotations
 
 import argparse
+import json
 import time
 
 import numpy as np
@@ -89,24 +90,35 @@ def time_mink(robot, ticks: int) -> tuple[list[float], float]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--ticks", type=int, default=2000)
+    parser.add_argument("--json", action="store_true", help="print one JSON object as the last line")
     args = parser.parse_args()
+    results = {"ours_us_median": None, "ours_us_p99": None, "mink_us_median": None, "placo_us_median": None,
+               "ratio_mink": None, "ratio_placo": None}  # placo's KinematicsSolver: not compared yet
     robot = load_robot("talos")
     time_robot_ctrl(robot, 100)  # warm-up
     ours, ours_err = time_robot_ctrl(robot, args.ticks)
     med, p99 = percentiles(ours)
+    results.update(ours_us_median=round(med, 2), ours_us_p99=round(p99, 2))
     print(f"robot_ctrl HierarchicalQP, 3 levels, Talos (nv = {robot.pin.nv}): "
           f"median {med:.1f} us, p99 {p99:.1f} us  (hand error after {args.ticks} ticks {ours_err * 1e3:.1f} mm)")
     try:
         import mink  # noqa: F401
     except ImportError as exc:
         print(f"mink does not import ({exc}; pip install -e '.[bench]'): no comparison")
-        return
+        return finish(results, args.json)
     time_mink(robot, 100)
     theirs, theirs_err = time_mink(robot, args.ticks)
     m_med, m_p99 = percentiles(theirs)
     print(f"mink solve_ik, same tasks, one weighted level (quadprog): median {m_med:.1f} us, p99 {m_p99:.1f} us  "
           f"(hand error {theirs_err * 1e3:.1f} mm)")
     print(f"ratio mink / robot_ctrl (median): {m_med / med:.2f}")
+    results.update(mink_us_median=round(m_med, 2), ratio_mink=round(m_med / med, 3))
+    finish(results, args.json)
+
+
+def finish(results: dict, as_json: bool) -> None:
+    if as_json:
+        print(json.dumps(results))
 
 
 if __name__ == "__main__":

@@ -18,6 +18,7 @@ Run: ``python benchmarks/bench_wpg.py [--solvers]``.
 from __future__ import annotations
 
 import argparse
+import json
 import tempfile
 import time
 from pathlib import Path
@@ -109,6 +110,7 @@ def run_placo(robot, params: WalkParams, distance: float = 3.0, step: float = 0.
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--solvers", action="store_true", help="also time the CasADi QP plugins")
+    parser.add_argument("--json", action="store_true", help="print one JSON object as the last line")
     args = parser.parse_args()
     robot = load_robot("talos")
     params = WalkParams(com_height=0.88, step_width=0.17, foot_length=robot.config.foot.length,
@@ -117,6 +119,8 @@ def main() -> None:
     solves, updates = run_ours(params)
     med, p99 = stats_ms(solves)
     umed, up99 = stats_ms(updates)
+    results = {"ours_update_ms_median": round(umed, 4), "ours_solve_ms_median": round(med, 4),
+               "placo_replan_ms_median": None, "ratio_placo_update": None}
     print(f"robot_ctrl walking MPC (CasADi + {params.solver}), 3 m at 0.25 m/s, {len(solves)} solves: "
           f"median {med:.3f} ms, p99 {p99:.3f} ms  (whole update incl. horizon: median {umed:.3f} ms, p99 {up99:.3f} ms)")
     if args.solvers:
@@ -131,7 +135,7 @@ def main() -> None:
         import placo  # noqa: F401
     except ImportError as exc:
         print(f"placo does not import ({exc}; make bench, or pip install -e '.[bench]'): no comparison")
-        return
+        return finish(results, args.json)
     plans, replans = run_placo(robot, params)
     pmed, _ = stats_ms(plans)
     rmed, rp99 = stats_ms(replans)
@@ -139,6 +143,13 @@ def main() -> None:
           f"{len(plans)}), replan median {rmed:.3f} ms, p99 {rp99:.3f} ms ({len(replans)} replans)")
     print(f"ratio placo replan / robot_ctrl MPC solve (median): {rmed / med:.2f}; "
           f"/ robot_ctrl whole update: {rmed / umed:.2f}")
+    results.update(placo_replan_ms_median=round(rmed, 4), ratio_placo_update=round(rmed / umed, 3))
+    finish(results, args.json)
+
+
+def finish(results: dict, as_json: bool) -> None:
+    if as_json:
+        print(json.dumps(results))
 
 
 if __name__ == "__main__":
