@@ -46,7 +46,8 @@ def _label(axes, xlabels, ylabels) -> None:
     for ax, x, y in zip(axes, xlabels, ylabels):
         ax.set_xlabel(x)
         ax.set_ylabel(y)
-        ax.legend(fontsize=7)
+        if ax.get_legend_handles_labels()[1]:  # a panel with nothing to plot (no trial of its kind) has no legend
+            ax.legend(fontsize=7)
 
 
 def _group(row: dict) -> str:
