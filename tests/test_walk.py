@@ -98,14 +98,14 @@ def test_arm_swing_walk_with_the_full_dynamic_filter(tmp_path):
 
 
 def test_arm_swing_starts_smoothly_and_stays_in_limits(talos):
-    from robot_ctrl.control.arm_swing import ArmSwing, elbows
+    from robot_ctrl.control.arm_swing import AMPLITUDE, ArmSwing, elbows
 
     base = np.array(talos.config.half_sitting)
     swing = ArmSwing.for_joints(elbows(talos), talos.joint_names, base, talos.lower, talos.upper)
     np.testing.assert_allclose(swing(0.0), np.clip(base, talos.lower, talos.upper))
     elbow = talos.joint_names.index("arm_left_4_joint")
     assert abs(swing(0.001)[elbow] - swing(0.0)[elbow]) < 1e-5  # no velocity step at the start
-    assert swing(1.25)[elbow] == pytest.approx(base[elbow] + 0.5)  # full amplitude after the ramp
+    assert swing(1.25)[elbow] == pytest.approx(base[elbow] + AMPLITUDE)  # full amplitude after the ramp
     others = [i for i in range(talos.nj) if talos.joint_names[i] not in elbows(talos)]
     np.testing.assert_allclose(swing(1.7)[others], np.clip(base, talos.lower, talos.upper)[others])
     with pytest.raises(ValueError, match="not joints of the robot"):

@@ -4,9 +4,10 @@ fast upper-body motion used to exercise the dynamic filter (issue: walk with ``-
 ``posture(t) = base + r(t) amplitude · sin(2π f t)`` on the swing joints (all in phase), base
 elsewhere, with ``r`` a smooth ramp from 0 to 1 over the first second (no velocity step at the
 start); joint order of the robot config, radians. Talos has no shoulder pitch joint (its shoulder is yaw,
-roll, yaw), so the default swings the elbows (``arm_*_4_joint``, pitch) forward and back: at
-0.5 rad and 1 Hz the forearms' inertial force moves the ZMP by about 2 cm. The swing is clipped
-into the joint limits given.
+roll, yaw), so the default swings the elbows (``arm_*_4_joint``, pitch) forward and back, by
+``AMPLITUDE`` at 1 Hz: as much as the elbows' servos follow within their torque limit (at 0.5 rad
+they were asked for up to 1.28 × it, and the safety layer clamped 34 ticks of a 3 m walk). The
+swing is clipped into the joint limits given.
 """
 
 from __future__ import annotations
@@ -18,6 +19,8 @@ import numpy as np
 
 from robot_ctrl.modes import ArmMotion
 from robot_ctrl.robot.model import RobotModel
+
+AMPLITUDE = 0.35  # [rad] of the default swing (module docstring)
 from robot_ctrl.sot.joint_limits import JointLimits
 
 
@@ -42,12 +45,12 @@ class ArmSwing:
     joints: np.ndarray  # indices of the swinging joints
     lower: np.ndarray  # (nj,) limits the posture is clipped into [rad]
     upper: np.ndarray
-    amplitude: float = 0.5  # [rad]
+    amplitude: float = AMPLITUDE  # [rad]
     frequency: float = 1.0  # [Hz]
 
     @classmethod
     def for_joints(cls, names: tuple[str, ...], joint_names: tuple[str, ...], base, lower, upper,
-                   amplitude: float = 0.5, frequency: float = 1.0) -> "ArmSwing":
+                   amplitude: float = AMPLITUDE, frequency: float = 1.0) -> "ArmSwing":
         missing = [n for n in names if n not in joint_names]
         if missing:
             raise ValueError(f"swing joints {missing} are not joints of the robot")
