@@ -56,7 +56,8 @@ def main() -> None:
           f"{report['rtf']:.2f} (loop and physics together; success {report['success']})")
     print(f"synthesis tick: median {np.median(us):.0f} us, p99 {np.percentile(us, 99):.0f} us over {len(us)} "
           f"ticks = {np.median(us) / 5000:.1%} of the 5 ms control period")
-    scene = RobotProcess(functools.partial(MujocoBackend, robot, prop=DrawerPlacement(distance, "front_left")), robot.nj)
+    placement = DrawerPlacement(distance, "front_left")
+    scene = RobotProcess(functools.partial(MujocoBackend, robot, prop=placement), robot.nj)
     physics = physics_only_rtf(robot, scene)
     print(f"physics only (the drawer scene, its own process): real-time factor {physics:.1f}x; "
           f"loop / physics: {report['rtf'] / physics:.2f}")

@@ -19,9 +19,9 @@ import numpy as np
 
 from robot_ctrl.modes import ArmMotion
 from robot_ctrl.robot.model import RobotModel
+from robot_ctrl.sot.joint_limits import JointLimits
 
 AMPLITUDE = 0.35  # [rad] of the default swing (module docstring)
-from robot_ctrl.sot.joint_limits import JointLimits
 
 
 def elbows(robot: RobotModel) -> tuple[str, str]:

@@ -291,7 +291,8 @@ class WalkReachCommander:
         self.stopping_at = target
         ahead = target + self._stance_shift
         start = self.targets.start
-        c.stop_at(*(Footstep(s, *(start[:2] + rotation(start[2]) @ (self.feet_offset[s] + [ahead, 0.0])), float(start[2]))
+        heading = rotation(start[2])
+        c.stop_at(*(Footstep(s, *(start[:2] + heading @ (self.feet_offset[s] + [ahead, 0.0])), float(start[2]))
                     for s in SIDES))
         self.log(f"t = {t:6.2f} s  last short cycle: stopping with the pelvis {target:.3f} m from the start "
                  f"(feet {self._stance_shift * 100:.1f} cm ahead of it for the reach)")

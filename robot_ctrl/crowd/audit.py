@@ -54,9 +54,10 @@ def _diffusive_truth(L: np.ndarray, k: float) -> float:
 def audit(graphs: int = 1000, sizes: tuple[int, int] = (2, 12), seed: int = 0) -> dict[str, dict]:
     """Per certificate: graphs where it holds, graphs whose worst case contracts (above 12 agents
     its estimate from random corners, which may count a graph that does not), share exact,
-    certified/worst-case rate (median, min, max) and the count of optimistic ones: certified above the worst case, or holding where the
-    worst case does not. Every fourth graph has negative gains, every third is rescaled by a power
-    of ten (with the gains rescaled inversely: the same dynamics)."""
+    certified/worst-case rate (median, min, max) and the count of optimistic ones: certified above
+    the worst case, or holding where the worst case does not. Every fourth graph has negative
+    gains, every third is rescaled by a power of ten (with the gains rescaled inversely: the same
+    dynamics)."""
     rng = np.random.default_rng(seed)
     names = ("phase_coupling", "hopf_diffusive", "step_frequency", "step_length", "schoener_dose")
     ratios: dict[str, list[float]] = {name: [] for name in names}
@@ -89,6 +90,7 @@ def audit(graphs: int = 1000, sizes: tuple[int, int] = (2, 12), seed: int = 0) -
                 ratios[name].append(c.rate / truth)
                 exact[name] += c.exact
                 optimistic[name] += c.rate > truth * (1 + 1e-9)
-    return {name: {"holds": len(r), "contracting": contracting[name], "exact": exact[name], "median": float(np.median(r)) if r else None,
+    return {name: {"holds": len(r), "contracting": contracting[name], "exact": exact[name],
+                   "median": float(np.median(r)) if r else None,
                    "min": float(np.min(r)) if r else None, "max": float(np.max(r)) if r else None,
                    "optimistic": int(optimistic[name])} for name, r in ratios.items()}

@@ -23,8 +23,8 @@ profile (forward speed over a cycle, normalized or not), given as samples over o
 - ``step_frequency`` (scenario 2, conference eq. 2): ``φ̇ = ω₀ 1 − m_d (L G(φ) + c)``. All-to-all:
   rate ``m_d min g λ⁺`` for m_d > 0, g > 0 (exact). Other graphs: the projected symmetrized Jacobian
   ``−m_d V (L D_g)_s Vᵀ`` over every g_i ∈ [min g, max g], its worst case at a vertex of that box
-  (exact up to 12 agents, a relaxation above that is never optimistic, ``crowd.worst_case``). For symmetric graphs the papers' closed forms are
-  listed beside it: the weak condition ``λ⁺_min / λ⁺_max > max|g − ḡ| / ḡ`` and the strong one
+  (exact up to 12 agents, a relaxation above that is never optimistic, ``crowd.worst_case``). For
+  symmetric graphs the papers' closed forms are listed beside it: the weak condition ``λ⁺_min / λ⁺_max > max|g − ḡ| / ḡ`` and the strong one
   (thesis Theorem 6) ``(1 − a)²/(1 + a)² + (1 − b)²/(1 + b)² < 1``, a = λ⁺_min/λ⁺_max, b = min g / max g.
 - ``lowpass_filter`` (journal/paper 003): with ``ż = −α z + G(φ)``, the paper's two conditions: the
   unfiltered step-frequency condition, and ``α²/m_d > ½ λ_max(V B Vᵀ)``, bounded by ``α > sqrt(m_d
@@ -187,11 +187,12 @@ def _leader(cfg: CouplingConfig) -> list[Condition]:
     return out
 
 
-def _profile_rate(graph: CouplingGraph, gain: float, g: np.ndarray, side: str) -> tuple[float, bool, str]:
-    rate, exact = profile_coupling_rate(graph, gain, float(g.min()), float(g.max()), side)
-    how = (f"worst case over the {2 ** graph.n} vertices of g ∈ [min g, max g]^N" if exact
-           else "relaxation over g ∈ [min g, max g]^N (arithmetic-geometric mean per agent, its multipliers "
-                "minimized), at least Weyl's m (ḡ λ⁺ − Δg ‖L‖₂)" if graph.n <= RELAXED_UP_TO
+def _profile_rate(graph: CouplingGraph, gain: float, low: float, high: float, side: str,
+                  box: str = "g ∈ [min g, max g]") -> tuple[float, bool, str]:
+    rate, exact = profile_coupling_rate(graph, gain, low, high, side)
+    how = (f"worst case over the {2 ** graph.n} vertices of {box}^N" if exact
+           else f"relaxation over {box}^N (arithmetic-geometric mean per agent, its multipliers minimized), at "
+                "least Weyl's m (ḡ λ⁺ − Δg ‖L‖₂)" if graph.n <= RELAXED_UP_TO
            else "Weyl: m (ḡ λ⁺ − Δg ‖L‖₂)")
     return rate, exact, how
 
@@ -204,7 +205,7 @@ def _step_frequency(cfg: CouplingConfig, lam: float, method: str, g: np.ndarray)
         worst_g = g.min() if m_d >= 0 else g.max()
         out = [_rated("step_frequency", "m_d min g λ⁺ > 0 (all-to-all)", m_d * worst_g * lam, method, True)]
     else:
-        rate, exact, how = _profile_rate(graph, m_d, g, "right")
+        rate, exact, how = _profile_rate(graph, m_d, float(g.min()), float(g.max()), "right")
         out = [_rated("step_frequency", "sup λ_max(−m_d V (L D_g)_s Vᵀ) < 0", rate, how, exact)]
         if graph.symmetric:  # the papers' closed-form sufficient conditions, for reference
             a, b = graph.lambda_plus / graph.lambda_top, g.min() / g.max()
@@ -224,8 +225,8 @@ def _step_frequency(cfg: CouplingConfig, lam: float, method: str, g: np.ndarray)
         bound = float(np.sqrt(max(m_d, 0.0) * g.max() * graph.norm2))
         covered = graph.topology == "all" or (graph.symmetric and g.min() == g.max())
         holds = covered and m_d > 0 and out[0].holds and cfg.lowpass > bound
-        how = "closed form (paper 003)" + ("" if covered else "; its argument covers all-to-all coupling, or a constant "
-                                           "profile on a symmetric graph, only: not this one")
+        how = "closed form (paper 003)" + ("" if covered else "; its argument covers all-to-all coupling, or a "
+                                           "constant profile on a symmetric graph, only: not this one")
         out.append(Condition("lowpass_filter", "step_frequency holds, α > sqrt(m_d max g ‖L‖₂)", holds,
                              cfg.lowpass - bound, None, how, False))
     return out
@@ -242,8 +243,8 @@ def _step_length(cfg: CouplingConfig, lam: float, g: np.ndarray) -> Condition:
         rate = cfg.m_z * (h[0] if cfg.m_z >= 0 else h[1]) * lam
         exact, how = True, "closed form, all-to-all: m_z ω min g λ⁺"
     else:
-        rate, exact, how = _profile_rate(graph, cfg.m_z, h, "left")
-        how = how.replace("g ∈ [min g, max g]", "ω g ∈ [ω min g, ω_max max g]")
+        rate, exact, how = _profile_rate(graph, cfg.m_z, float(h[0]), float(h[1]), "left",
+                                         "ω g ∈ [ω min g, ω_max max g]")
     if cfg.k is not None and cfg.k > 0 and rate > 0:
         rate, how = min(rate, cfg.k * lam), f"{how}; rate min(ρ_φ, ρ_z)"
     return _rated("step_length", "sup λ_max(−m_z V (D_ω D_g L)_s Vᵀ) < 0", rate, how, exact)

@@ -91,7 +91,8 @@ class CouplingGraph:
             return self.matrix
         if self.n > DENSE_LIMIT:
             raise ValueError(f"a dense Laplacian of {self.n} agents ({8 * self.n ** 2 / 1e9:.3g} GB) is not made: "
-                             f"above {DENSE_LIMIT} agents only what a named graph gives in closed form or sparse applies")
+                             f"above {DENSE_LIMIT} agents only what a named graph gives in closed form or sparse "
+                             "applies")
         if self.matrix is None:  # all-to-all
             return self.weight * (self.n * np.eye(self.n) - np.ones((self.n, self.n)))
         return self.matrix.toarray()
@@ -154,7 +155,8 @@ class CouplingGraph:
 
     @property
     def lambda_max(self) -> float:
-        """Largest eigenvalue of ``L_s`` (a named graph's: its projected largest, L's other eigenvalue being 0)."""
+        """Largest eigenvalue of ``L_s`` (a named graph's: its projected largest, L's other eigenvalue
+        being 0)."""
         if self.topology is not None:
             return self.closed_form_lambda_top()
         return float(np.linalg.eigvalsh((self.laplacian + self.laplacian.T) / 2)[-1])

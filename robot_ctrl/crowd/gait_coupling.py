@@ -52,7 +52,8 @@ def consensus_sin_cos(cos_psi: np.ndarray, sin_psi: np.ndarray) -> tuple[np.ndar
     c, s = cos_psi.sum(axis=-1, keepdims=True), sin_psi.sum(axis=-1, keepdims=True)
     norm = np.hypot(c, s)
     none = norm == 0.0
-    return np.where(none, 0.0, s / np.where(none, 1.0, norm)), np.where(none, 1.0, c / np.where(none, 1.0, norm))
+    norm[none] = 1.0
+    return np.where(none, 0.0, s / norm), np.where(none, 1.0, c / norm)
 
 
 @dataclass(frozen=True)
@@ -99,7 +100,8 @@ class GaitCoupling:
     def certify(self, g: np.ndarray, omega: float, spread: float = np.pi / 4, phases: str = "sine",
                 omega_max: float | None = None) -> list[Condition]:
         """The conditions that apply to these laws, with ``g`` = dz/dφ over a cycle [m/rad] and
-        ``omega`` .. ``omega_max`` the gait frequencies an agent may run at [rad/s]. ``phases`` says how the step phases are coupled:
+        ``omega`` .. ``omega_max`` the gait frequencies an agent may run at [rad/s]. ``phases`` says how
+        the step phases are coupled:
         ``"sine"`` (these laws: ``phase_coupling``, the linearization at synchrony with rate k λ⁺, and
         ``schoener_dose``, the sine coupling inside a phase spread ``spread``) or ``"hopf"``
         (oscillators coupled through their (x, y) state: ``hopf_diffusive`` and ``phase_coupling``)."""

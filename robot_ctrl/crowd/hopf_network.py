@@ -68,6 +68,7 @@ def simulate_crowd(coupling: GaitCoupling, duration: float, omega: float = 2 * n
     if dt is None:  # the fastest coupled mode of each law sets the step
         stiff = (abs(k) + abs(m_z) * 1.5 * omega * g.max() + abs(m_d) * g.max()) * graph.lambda_max
         dt = min(0.01, 1.0 / (stiff + omega + 2.0))
+
     def laplacian_times(values):  # L applied along the agent axis of (runs, N, c): O(N) for named graphs
         flat = np.ascontiguousarray(values.transpose(1, 0, 2)).reshape(n, -1)
         return graph.apply(flat).reshape(n, runs, -1).transpose(1, 0, 2)

@@ -60,7 +60,8 @@ def rank_two_box_sup(base: np.ndarray, a: np.ndarray, b: np.ndarray, radius: np.
 
     def bound(log_t):
         t = np.exp(log_t)
-        values, vectors = np.linalg.eigh(base + np.tensordot(weight * t, outer_a, 1) + np.tensordot(weight / t, outer_b, 1))
+        matrix = base + np.tensordot(weight * t, outer_a, 1) + np.tensordot(weight / t, outer_b, 1)
+        values, vectors = np.linalg.eigh(matrix)
         top = vectors[:, -1]
         return values[-1], weight * (t * (a @ top) ** 2 - (b @ top) ** 2 / t)
     start = np.log(np.maximum(np.linalg.norm(b, axis=1), 1e-12) / np.maximum(np.linalg.norm(a, axis=1), 1e-12))

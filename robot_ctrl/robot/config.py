@@ -64,7 +64,7 @@ class RobotConfig:
     servo: ServoGains
     position_margin: float  # [rad]
     velocity_fraction: float
-    acceleration_fraction: float | None  # share of each joint's effort limit the IK may spend accelerating it (None: no bound)
+    acceleration_fraction: float | None  # of the effort limit the IK may spend accelerating a joint; None: unbounded
     max_gain_ratio: float  # the largest kp and kd a command may carry, over the default gains
     timestep: float  # [s] physics step of the simulation backend
 
