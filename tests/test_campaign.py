@@ -64,9 +64,10 @@ def test_trials_from_a_file_and_drawn_at_random(tmp_path):
     assert naive.argv[-6:] == ("--sources", "5+4", "--dataset", "/data/feasible.npz", "--method", "naive")
     assert naive.id == "001_naive_5+4_front_right_1.700m_fast"
     # the thesis's "WPG": the pipeline on the primitives the feasible runs came from, whatever --dataset says
-    wpg = dataclasses.replace(trials[1], method="wpg-direct", dataset=method_dataset("wpg-direct", "/data/feasible.npz"))
+    wpg = dataclasses.replace(trials[1], method="wpg-direct",
+                              dataset=method_dataset("wpg-direct", "/data/feasible.npz", "talos"))
     assert wpg.trial().argv[-2:] == ("--dataset", str(kinematic_dataset_path("talos")))
-    assert method_dataset("ours", "/data/feasible.npz") == "/data/feasible.npz"
+    assert method_dataset("ours", "/data/feasible.npz", "talos") == "/data/feasible.npz"
     drawn = draw_trials(30, 1, (SpeedClass.SLOW, SpeedClass.MIDDLE, SpeedClass.FAST), ("ours",), FilterMode.FULL)
     classes = (SpeedClass.SLOW, SpeedClass.MIDDLE, SpeedClass.FAST)
     assert drawn == draw_trials(30, 1, classes, ("ours",), FilterMode.FULL)

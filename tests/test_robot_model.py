@@ -1,4 +1,4 @@
-"""Robot layer: Talos in Pinocchio and in the converted MuJoCo scene agree; config errors are clear."""
+"""Robot layer: Talos and G1 in Pinocchio and in the converted MuJoCo scene agree; config errors are clear."""
 
 import dataclasses
 
@@ -8,10 +8,14 @@ import pinocchio as pin
 import pytest
 import yaml
 
+from robot_ctrl.cli import main
 from robot_ctrl.robot import ConfigError, load_robot, load_robot_config
 from robot_ctrl.robot.config import CONFIG_DIR, parse_robot_config
 from robot_ctrl.robot.description import read_srdf
 from robot_ctrl.robot.joint_map import MujocoJointMap, mujoco_to_pin_q, pin_to_mujoco_qpos
+from robot_ctrl.robot.mjcf import robot_spec
+from robot_ctrl.robot.self_collision import compute_exclusions
+from robot_ctrl.wpg.params import WalkParams
 
 
 @pytest.fixture(scope="module")
@@ -33,25 +37,83 @@ def test_mass_is_equal(talos, mj):
     assert m.body_subtreemass[0] == pytest.approx(talos.mass, rel=1e-6)
 
 
-def test_com_and_soles_agree_over_random_configurations(talos, mj):
-    m, d, jmap = mj
-    data = talos.pin.createData()
+@pytest.mark.parametrize("name", ["talos", "g1"])
+def test_com_and_soles_agree_over_random_configurations(name):
+    """G1's soles are frames its config adds to the ankle links: Pinocchio and MuJoCo place them alike."""
+    robot = load_robot(name)
+    m = mujoco.MjModel.from_xml_path(str(robot.mjcf_path))
+    d = mujoco.MjData(m)
+    prefix = f"{name}/"
+    jmap = MujocoJointMap.build(m, robot.joint_names, prefix, robot.config.base_link)
+    data = robot.pin.createData()
     rng = np.random.default_rng(0)
     np.random.seed(0)  # pinocchio.randomConfiguration draws from numpy's global generator
     for _ in range(20):
-        q = random_configuration(talos, rng)
-        pin_to_mujoco_qpos(q, talos.q_index, jmap, d.qpos)
+        q = random_configuration(robot, rng)
+        pin_to_mujoco_qpos(q, robot.q_index, jmap, d.qpos)
         mujoco.mj_kinematics(m, d)
         mujoco.mj_comPos(m, d)
-        com_pin = pin.centerOfMass(talos.pin, data, q)
-        root = m.body("talos/base_link").id
+        com_pin = pin.centerOfMass(robot.pin, data, q)
+        root = m.body(prefix + robot.config.base_link).id
         assert np.linalg.norm(d.subtree_com[root] - com_pin) < 1e-3
-        pin.framesForwardKinematics(talos.pin, data, q)
-        for side, frame in talos.config.feet.items():
-            sole_mj = d.xpos[m.body(f"talos/{frame}").id]
-            sole_pin = data.oMf[talos.frame_ids[f"{side}_foot"]].translation
-            assert np.linalg.norm(sole_mj - sole_pin) < 1e-3
-        assert np.allclose(mujoco_to_pin_q(d.qpos, talos.q_index, jmap, talos.pin.nq), q)
+        pin.framesForwardKinematics(robot.pin, data, q)
+        for side, frame in robot.config.feet.items():
+            sole_mj = m.body(prefix + frame).id
+            sole_pin = data.oMf[robot.frame_ids[f"{side}_foot"]]
+            assert np.linalg.norm(d.xpos[sole_mj] - sole_pin.translation) < 1e-3
+            assert np.allclose(d.xmat[sole_mj].reshape(3, 3), sole_pin.rotation, atol=1e-5)
+        assert np.allclose(mujoco_to_pin_q(d.qpos, robot.q_index, jmap, robot.pin.nq), q)
+
+
+def test_a_sole_box_replaces_the_urdf_feet_and_stands_flat_on_the_floor():
+    """G1's URDF feet are four 5 mm spheres: the conversion puts one massless box of the config's sole
+    rectangle in their place on the ankle link, its bottom face on the sole frame."""
+    g1 = load_robot("g1")
+    m = mujoco.MjModel.from_xml_path(str(g1.mjcf_path))
+    d = mujoco.MjData(m)
+    mujoco.mj_kinematics(m, d)
+    foot = g1.config.foot
+    for side, frame in g1.config.feet.items():
+        sole = m.body(f"g1/{frame}").id
+        ankle = m.body_parentid[sole]
+        assert m.body(ankle).name == f"g1/{side}_ankle_roll_link"
+        (box,) = np.flatnonzero(m.geom_bodyid == ankle)  # the spheres are gone
+        assert m.geom_type[box] == mujoco.mjtGeom.mjGEOM_BOX and not np.any(m.geom_bodyid == sole)
+        np.testing.assert_allclose(m.geom_size[box], [foot.length / 2, foot.width / 2, foot.box_height / 2])
+        # In the sole frame: centred on the sole rectangle, its bottom face on the frame's origin.
+        local = d.xmat[sole].reshape(3, 3).T @ (d.geom_xpos[box] - d.xpos[sole])
+        np.testing.assert_allclose(local, [*foot.center_offset, foot.box_height / 2], atol=1e-9)
+        np.testing.assert_allclose(d.geom_xmat[box], d.xmat[sole], atol=1e-9)
+    assert m.body_subtreemass[m.body("g1/pelvis").id] == pytest.approx(g1.mass, rel=1e-6)
+
+
+def test_self_collision_exclusions_are_computed_as_moveit_does():
+    """No SRDF: adjacent links, links touching at the default posture and pairs never in collision
+    over random configurations go unchecked; pairs that can touch (the two feet, a hand and a knee) stay
+    checked; the same seed gives the same pairs."""
+    g1 = load_robot("g1")
+    spec = robot_spec(g1.config, g1.files, g1.kp, g1.kd, g1.effort, g1.armature)
+    posture = dict(zip(g1.joint_names, g1.config.half_sitting))
+    found = compute_exclusions(spec, posture, samples=2000)
+    assert ("left_hip_roll_link", "left_hip_yaw_link") in found.adjacent
+    assert ("left_ankle_pitch_link", "left_ankle_roll_link") in found.adjacent
+    assert ("left_hip_pitch_link", "pelvis_contour_link") in found.adjacent  # siblings under the bare pelvis
+    assert not found.default and not found.always
+    unchecked = set(found.pairs)
+    for pair in (("left_ankle_roll_link", "right_ankle_roll_link"), ("left_knee_link", "left_wrist_yaw_link"),
+                 ("left_knee_link", "right_knee_link")):
+        assert pair not in unchecked
+    assert ("head_link", "left_hip_pitch_link") in found.never
+    assert compute_exclusions(spec, posture, samples=2000) == found
+    # Legs crossed at the default posture: the knees touch there, so they are never checked.
+    crossed = compute_exclusions(spec, posture | {"left_hip_roll_joint": -0.4, "right_hip_roll_joint": 0.4},
+                                 samples=500)
+    assert ("left_knee_link", "right_knee_link") in crossed.default
+    # The converted scene carries them as MuJoCo exclusions.
+    m = mujoco.MjModel.from_xml_path(str(g1.mjcf_path))
+    excluded = {tuple(sorted((m.body(int(s >> 16)).name, m.body(int(s & 0xFFFF)).name))) for s in m.exclude_signature}
+    assert ("g1/head_link", "g1/left_hip_pitch_link") in excluded
+    assert ("g1/left_ankle_roll_link", "g1/right_ankle_roll_link") not in excluded
 
 
 def test_mjcf_has_servos_exclusions_and_integrator(talos, mj):
@@ -121,6 +183,40 @@ def test_out_of_range_fields_are_named(path, value, message):
     raw[path[0]][path[1]] = value
     with pytest.raises(ConfigError, match=message):
         parse_robot_config(raw)
+
+
+@pytest.mark.parametrize("path,value,message", [
+    (("walking",), {"step_height": 0.1},
+     r"walking.step_height is not a walking parameter a config sets \(allowed: .*swing_apex"),
+    (("walking",), {"com_height": 0.6}, r"walking.com_height .*come from the robot itself"),
+    (("walking",), {"speed": 2.0}, r"walking: field 'speed' = 2.0 is outside the allowed range \[0.02, 0.5\]"),
+    (("added_frames",), {"toe": {"parent": "left_ankle_roll_link", "xyz": [0, 0]}},
+     r"added_frames.toe.xyz must be three"),
+    (("added_frames",), {"toe": {"parent": "left_toe_link"}}, r"added_frames.toe.parent 'left_toe_link' is not a link"),
+    (("servo", "armature"), {"knee": 0.01}, r"servo.armature names joints not in half_sitting: \['knee'\]"),
+    (("foot", "box_height"), 0.5, r"field 'box_height' = 0.5 is outside the allowed range"),
+    (("joints", "grippers"), {"left": "left_elbow_joint"},
+     r"joints.grippers must have exactly the keys 'left' and 'right'"),
+])
+def test_g1_config_errors_are_named(path, value, message):
+    """What a config for a robot unlike Talos adds (sole frames, a sole box, its own walking
+    parameters, per-joint rotor inertias) is checked, and each error names its field."""
+    raw = yaml.safe_load((CONFIG_DIR / "g1.yaml").read_text())
+    if len(path) == 1:
+        raw[path[0]] = value
+    else:
+        raw[path[0]][path[1]] = value
+    with pytest.raises((ConfigError, ValueError), match=message):
+        config = parse_robot_config(raw)
+        WalkParams.of_robot(config.walking)
+        load_robot(config)
+
+
+def test_g1_without_grippers_is_refused_the_drawer_task_in_one_line(capsys):
+    assert main(["drawer", "--robot", "g1", "--distance", "2"]) == 2
+    assert capsys.readouterr().err.strip().endswith(
+        "drawer: robot g1 names no joints.grippers, joints.shoulders, joints.wrists in its config: the walk-and-reach "
+        "task needs a gripper that closes round the drawer's handle")
 
 
 def test_half_sitting_outside_urdf_limits_is_rejected():

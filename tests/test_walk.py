@@ -9,16 +9,21 @@ import pytest
 from robot_ctrl.cli import main
 from robot_ctrl.control.path_follower import PathFollower, WalkGoal
 from robot_ctrl.eval.robustness_campaign import push_phases
+from robot_ctrl.robot import load_robot
+
+ROBOTS = ("talos", "g1")
 
 
-def test_one_metre_walk_does_not_fall(tmp_path):
-    assert main(["walk", "--robot", "talos", "--distance", "1.0", "--out", str(tmp_path)]) == 0
+@pytest.mark.parametrize("robot", ROBOTS)
+def test_one_metre_walk_does_not_fall(robot, tmp_path):
+    assert main(["walk", "--robot", robot, "--distance", "1.0", "--out", str(tmp_path)]) == 0
     report = json.loads((tmp_path / "report.json").read_text())
-    assert report["fell"] is False
+    assert report["fell"] is False and report["robot"] == robot
     assert report["final_position_error_m"] < 0.05 and report["final_yaw_error_deg"] < 5.0
     assert report["ended_in_double_support"] and report["stood_s"] >= 2.0
     assert report["zmp_in_support_ratio"] >= 0.98
     assert report["peak_torque_ratio"] <= 1.0
+    assert not report["safety"]["interventions"] and max(report["safety"]["demanded_peak_torque_ratio"].values()) <= 1.0
     steps = report["footsteps"]
     assert len(steps) >= 5
     for step in steps:  # realized footsteps land within 2 cm of the plan
@@ -30,7 +35,7 @@ def test_one_metre_walk_does_not_fall(tmp_path):
     assert set(report["zmp_lateral_std_m"]) == {"left", "right"}
     assert len(report["step_length_error_m"]) == len(steps) - 1
     assert max(abs(e) for e in report["step_length_error_m"]) < 0.02
-    assert report["grf_limit_n"] == pytest.approx(1.4 * 9.81 * 90.27, rel=0.01)
+    assert report["grf_limit_n"] == pytest.approx(1.4 * 9.81 * load_robot(robot).mass, rel=1e-3)
     assert max(report["peak_grf_n"].values()) < report["grf_limit_n"] and not any(report["grf_over_limit"].values())
     assert report["com_error_rms_m"] < 0.02
     # The HTML report: the table shows the report's values, the four figures are embedded, nothing
@@ -157,12 +162,13 @@ def test_fast_walks_with_the_dynamic_filter_do_not_fall(dynfilter, arms, tmp_pat
     assert report["dynfilter_fallbacks"] == 0 and report["zmp_error_rms_m"]["x"] < 0.035
 
 
+@pytest.mark.parametrize("robot", ROBOTS)
 @pytest.mark.parametrize("args,pose", [
     (["--distance", "1.5", "--turn-deg", "90"], (3 / np.pi, 3 / np.pi, 90.0)),  # a quarter circle of radius 0.95 m
     (["--lateral", "-0.3"], (0.0, -0.3, 0.0)),  # side-steps to the right
 ])
-def test_arcs_and_side_steps_end_at_their_goal(args, pose, tmp_path):
-    assert main(["walk", *args, "--quiet", "--out", str(tmp_path)]) == 0
+def test_arcs_and_side_steps_end_at_their_goal(robot, args, pose, tmp_path):
+    assert main(["walk", "--robot", robot, *args, "--quiet", "--out", str(tmp_path)]) == 0
     report = json.loads((tmp_path / "report.json").read_text())
     x, y, yaw = report["final_base_xy_yaw"]
     assert report["commanded_base_xy_yaw"] == pytest.approx([pose[0], pose[1], np.radians(pose[2])], abs=1e-3)

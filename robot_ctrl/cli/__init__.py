@@ -24,7 +24,7 @@ def build_parser() -> argparse.ArgumentParser:
     robot_runs.add_scenario_parsers(sub, sim)
     crowd.add_parsers(sub, sim)
     robot_runs.add_robustness_parser(sub)
-    campaign.add_parsers(sub)
+    campaign.add_parsers(sub, robot)
     synth.add_parsers(sub, robot)
     hw.add_parsers(sub, robot)
     tools.add_parsers(sub)

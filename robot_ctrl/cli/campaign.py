@@ -39,9 +39,10 @@ def _campaign(args: argparse.Namespace) -> int:
         raise ConfigError(f"campaign: {exc}".replace("speed ", "--speeds ").replace("method ", "--method ")) from exc
     sources = parse_sources(args.sources, "campaign: --sources")
     dataset = str(args.dataset.resolve()) if args.dataset is not None else None
-    trials = [replace(t, index=k, sources=f"{first}+{extra}", dataset=campaign.method_dataset(t.method, dataset))
+    robot = load_robot(args.robot)
+    trials = [replace(t, index=k, sources=f"{first}+{extra}", robot=robot.name,
+                      dataset=campaign.method_dataset(t.method, dataset, robot.name))
               for k, (t, (first, extra)) in enumerate((t, s) for t in trials for s in sources)]
-    robot = load_robot("talos")
     for demos, naive in sorted({(t.dataset, t.method == "naive") for t in trials}, key=str):  # each set, checked once
         tasks = {f"campaign: trial {t.id}": DrawerTask(t.distance, t.slot, (GoalJump(*t.jump),) if t.jump else (),
                                                        t.dynfilter, speed=t.speed)
@@ -66,8 +67,9 @@ def _mm(value: float | None) -> str:
     return "–" if value is None else f"{value * 1e3:.1f} mm"
 
 
-def add_parsers(sub) -> None:
-    p = sub.add_parser("campaign", help="many drawer trials in parallel, locally or on a Ray cluster (resumable)",
+def add_parsers(sub, robot) -> None:
+    p = sub.add_parser("campaign", parents=[robot],
+                       help="many drawer trials in parallel, locally or on a Ray cluster (resumable)",
                        description="Runs drawer trials (from --trials FILE, or --n drawn at random with --seed at new "
                                    "distances), each in its own processes, --jobs at a time, and writes "
                                    "DIR/campaign.json (a row per trial, a summary per method and speed class), "

@@ -138,16 +138,22 @@ def check_outputs(args: argparse.Namespace) -> None:
             raise ConfigError(str(exc)) from exc
 
 
-def step_timing(args: argparse.Namespace, command: str) -> tuple[float, float]:
-    """``--single-support`` and ``--double-support`` [s]: whole pattern-generator samples (0.1 s)."""
+def step_timing(args: argparse.Namespace, command: str) -> dict[str, float]:
+    """``--single-support`` and ``--double-support`` [s] where given (whole pattern-generator samples,
+    0.1 s), as WalkParams fields; those not given are the robot's."""
     from robot_ctrl.wpg.params import WalkParams
 
     sample = WalkParams.sample_time
-    for option, value, (lo, hi) in (("--single-support", args.single_support, SINGLE_SUPPORT_RANGE),
-                                    ("--double-support", args.double_support, DOUBLE_SUPPORT_RANGE)):
+    given = {}
+    for option, field, (lo, hi) in (("--single-support", "single_support", SINGLE_SUPPORT_RANGE),
+                                    ("--double-support", "double_support", DOUBLE_SUPPORT_RANGE)):
+        value = getattr(args, field)
+        if value is None:
+            continue
         if not lo <= value <= hi or abs(value / sample - round(value / sample)) > 1e-9:
             raise ConfigError(f"{command}: {option} {value} must be a multiple of {sample:g} s in [{lo:g}, {hi:g}] s")
-    return args.single_support, args.double_support
+        given[field] = value
+    return given
 
 
 def robot_parent() -> argparse.ArgumentParser:
@@ -159,12 +165,14 @@ def robot_parent() -> argparse.ArgumentParser:
 def step_timing_args(p) -> None:
     from robot_ctrl.wpg.params import WalkParams
 
-    p.add_argument("--single-support", type=float, default=WalkParams.single_support,
+    p.add_argument("--single-support", type=float,
                    help="single-support time of each step [s], a multiple of 0.1 in "
-                        f"[{SINGLE_SUPPORT_RANGE[0]:g}, {SINGLE_SUPPORT_RANGE[1]:g}]: shorter steps catch pushes sooner")
-    p.add_argument("--double-support", type=float, default=WalkParams.double_support,
+                        f"[{SINGLE_SUPPORT_RANGE[0]:g}, {SINGLE_SUPPORT_RANGE[1]:g}] (default: the robot's, "
+                        f"{WalkParams.single_support:g} for Talos): shorter steps catch pushes sooner")
+    p.add_argument("--double-support", type=float,
                    help="double-support time between steps [s], a multiple of 0.1 in "
-                        f"[{DOUBLE_SUPPORT_RANGE[0]:g}, {DOUBLE_SUPPORT_RANGE[1]:g}]")
+                        f"[{DOUBLE_SUPPORT_RANGE[0]:g}, {DOUBLE_SUPPORT_RANGE[1]:g}] (default: the robot's, "
+                        f"{WalkParams.double_support:g} for Talos)")
 
 
 def log_arg(p) -> None:

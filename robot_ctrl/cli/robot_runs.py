@@ -43,22 +43,27 @@ def _walk(args: argparse.Namespace) -> int:
 
     from robot_ctrl.control.path_follower import WalkGoal
     from robot_ctrl.control.walking_controller import WalkingOptions
+    from robot_ctrl.robot.config import load_robot_config
     from robot_ctrl.scenarios.walk import WalkSettings, run_walk
     from robot_ctrl.wpg.params import WalkParams
 
+    speed = load_robot_config(args.robot).walking_speed if args.speed is None else args.speed
     try:
-        goal = WalkGoal(distance=args.distance, turn=math.radians(args.turn_deg), lateral=args.lateral,
-                        speed=args.speed)
+        goal = WalkGoal(distance=args.distance, turn=math.radians(args.turn_deg), lateral=args.lateral, speed=speed)
     except ValueError as exc:
         raise ConfigError(f"walk: {exc}".replace("turn = ", "--turn-deg (in rad) = ")) from exc
     check_ranges("walk", args)
-    single, double = step_timing(args, "walk")
-    options = WalkingOptions(params=WalkParams(single_support=single, double_support=double),
+    timing = step_timing(args, "walk")
+    robot, disturbances, hardware = simulation(args)
+    try:
+        params = WalkParams.of_robot(robot.config.walking, **timing)
+    except ValueError as exc:
+        raise ConfigError(f"walk: {exc}") from exc
+    options = WalkingOptions(params=params,
                              stabilize=not args.no_stabilizer, recover_pushes=not args.no_push_recovery,
                              dynfilter=FilterMode(args.dynfilter), dynfilter_passes=args.dynfilter_passes,
                              dynfilter_worker=not args.dynfilter_inline)
     settings = WalkSettings(options, arms=ArmMotion(args.arms), base_state=base_state_of(args))
-    robot, disturbances, hardware = simulation(args)
     with hardware as hw, on_the_robot(args, robot, hw, options.control_dt) as (recorders, pacer):
         report = run_walk(robot, hw, goal, settings, out_dir=args.out, log=log_line, progress=not args.quiet,
                           disturbances=disturbances, recorders=recorders, pacer=pacer)
@@ -113,6 +118,7 @@ def check_drawer_tasks(tasks: dict, robot, options: dict[str, str] | None = None
     from robot_ctrl.synthesis.learned import load_demonstrations
 
     label = next(iter(tasks), "drawer").split(":")[0]  # the command, until a task is named
+    robot.config.require_reach(label)
     try:
         demos = load_demonstrations(robot, dataset, whole_body)
         if whole_body:
@@ -129,15 +135,17 @@ def check_drawer_tasks(tasks: dict, robot, options: dict[str, str] | None = None
 
 def _robustness(args: argparse.Namespace) -> int:
     from robot_ctrl.eval import robustness_campaign as robustness
+    from robot_ctrl.wpg.params import WalkParams
 
     check_ranges("robustness", args)
-    single, double = step_timing(args, "robustness")
+    timing = step_timing(args, "robustness")
     grid = {}
     if args.quick:  # a smoke test of the campaign: two directions, one phase, two magnitudes
         grid = dict(directions=(0, -90), phases=("single_mid",), magnitudes=(0.1, 0.2),
                     mismatch={k: robustness.MISMATCH[k] for k in ("mass ×1.15", "latency 10 ms")})
-    robustness.run_robustness(args.out, backend_of(args, "robustness"), log=log_line, progress=not args.quiet, single=single, double=double,
-                              **grid)
+    robustness.run_robustness(args.out, backend_of(args, "robustness"), log=log_line, progress=not args.quiet,
+                              single=timing.get("single_support", WalkParams.single_support),
+                              double=timing.get("double_support", WalkParams.double_support), **grid)
     return 0
 
 
@@ -166,12 +174,13 @@ def _add_walk(sub, sim) -> None:
     p.add_argument("--distance", type=float, default=0.0, help="path length forward [m] (arc length when turning)")
     p.add_argument("--turn-deg", type=float, default=0.0, help="heading change over the path [deg], + left")
     p.add_argument("--lateral", type=float, default=0.0, help="side-step distance [m], + left, - right")
-    p.add_argument("--speed", type=float, default=0.25, help="walking speed [m/s], 0.02..0.5")
+    p.add_argument("--speed", type=float,
+                   help="walking speed [m/s], 0.02..0.5 (default: the robot config's walking.speed, 0.25 for Talos)")
     p.add_argument("--no-stabilizer", action="store_true", help="open loop: no DCM/ZMP balance feedback")
     p.add_argument("--no-push-recovery", action="store_true",
                    help="the plan does not take up a pushed DCM (its footsteps do not follow a push)")
     p.add_argument("--arms", choices=[m.value for m in ArmMotion], default=ArmMotion.NONE.value,
-                   help="upper body: half-sitting, or both elbows swinging ±0.5 rad at 1 Hz")
+                   help="upper body: half-sitting, or both elbows swinging ±0.35 rad at 1 Hz")
     p.add_argument("--dynfilter", choices=[m.value for m in FilterMode], default=FilterMode.OFF.value,
                    help="dynamic filter: off, legs only (upper body frozen in its preview) or full body")
     p.add_argument("--dynfilter-passes", type=int, default=2, help="filter passes per WPG sample (1..10)")

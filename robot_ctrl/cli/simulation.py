@@ -76,7 +76,7 @@ def simulation(args: argparse.Namespace, robot=None, prop=None):
 
 def check_real_robot(args: argparse.Namespace, disturbances, robot) -> None:
     """Refuse what a scenario on real servos cannot do, before anything moves."""
-    from robot_ctrl.hw.bus_config import load_bus_config
+    from robot_ctrl.hw.bus_config import load_bus_config, shipped_bus_configs
     from robot_ctrl.hw.disturbances import Disturbances
 
     if disturbances != Disturbances():
@@ -86,7 +86,7 @@ def check_real_robot(args: argparse.Namespace, disturbances, robot) -> None:
         raise ConfigError(f"--hw {args.hw}: --viewer and --video show the simulation; real servos have none")
     if args.bus_config is None:
         raise ConfigError(f"--hw {args.hw} needs --bus-config: the YAML naming your buses, ids, directions, zero "
-                          "offsets and body sensors (start from configs/hw/talos_mit_can.yaml or talos_dynamixel.yaml)")
+                          f"offsets and body sensors (start from {shipped_bus_configs()})")
     if not load_bus_config(args.bus_config, robot.joint_names).body_sensors:
         raise ConfigError(f"--hw {args.hw}: {args.command} needs the robot's IMU and foot force/torque sensors: name "
                           "their driver in the bus config (body_sensors: module:function, docs/hardware.md)")

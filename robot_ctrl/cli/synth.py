@@ -25,6 +25,7 @@ def _synth_primitives(args: argparse.Namespace, sources: tuple[int, int] | None 
     from robot_ctrl.synthesis.learned import DEFAULT_SOURCES, load_primitives
 
     robot = load_robot(args.robot)
+    robot.config.require_reach(args.command)
     try:
         return robot, load_primitives(robot, args.dataset, sources or DEFAULT_SOURCES)
     except (FileNotFoundError, ValueError) as exc:
@@ -112,6 +113,7 @@ def _synth_demos(args: argparse.Namespace) -> int:
     )
 
     robot = load_robot(args.robot)
+    robot.config.require_reach("synth-demos")
     if args.from_physics:
         from robot_ctrl.eval.feasible_demonstrations import record_feasible_set
 

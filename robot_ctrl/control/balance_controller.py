@@ -142,8 +142,9 @@ class BalanceController:
         name = self.motion.apply(self.k * self.dt)
         v = self.ik.step(self.dt)
         tau, _ = static_torques(robot.pin, self._statics, self.ik.q, *self.motion.contacts(name))
+        tau_ff = np.clip(tau[robot.v_index], -robot.effort, robot.effort)  # what the servos can give
         self._prepared = name, JointCommand(q=robot.joints_from_q(self.ik.q), dq=v[robot.v_index], kp=robot.kp,
-                                            kd=robot.kd, tau_ff=tau[robot.v_index])
+                                            kd=robot.kd, tau_ff=tau_ff)
 
     def step(self, state: JointState) -> JointCommand:
         if self._prepared is None:

@@ -75,10 +75,9 @@ class WalkingOptions:
     trunk_weight: float = 1.0
     balance_with_arms: bool = True
 
-    @property
-    def walk_params(self) -> WalkParams:
-        """``params``, or the defaults."""
-        return WalkParams() if self.params is None else self.params
+    def walk_params(self, robot: RobotModel) -> WalkParams:
+        """``params``, or the robot's own (its config's ``walking:`` over the defaults)."""
+        return WalkParams.of_robot(robot.config.walking) if self.params is None else self.params
 
 
 @dataclass(frozen=True)
@@ -144,7 +143,7 @@ class WalkingController:
         self.sole_height = float(np.mean([feet[s].translation[2] for s in SIDES]))
         com = self.ik.com_position()
         self.com_z = float(com[2])
-        self.params = options.walk_params.for_robot(
+        self.params = options.walk_params(robot).for_robot(
             com_height=self.com_z - self.sole_height, foot_length=robot.config.foot.length,
             foot_width=robot.config.foot.width,
             step_width=float(np.linalg.norm(feet["left"].translation[:2] - feet["right"].translation[:2])))
@@ -403,8 +402,10 @@ class WalkingController:
         ik.com.set_target(np.array([*(prepared.com + correction), self.com_z]), ik.com.target_velocity)
         v = self._v = ik.finish(retargeted=(ik.com,))
         r = self.robot
+        # A servo delivers no more than its effort: a feedforward beyond it (a stance ankle holding the
+        # ZMP at the toe of a small robot's sole) is sent as much as it can give.
         return JointCommand(q=r.joints_from_q(ik.q), dq=v[r.v_index], kp=r.kp, kd=r.kd,
-                            tau_ff=prepared.tau_ff[r.v_index])
+                            tau_ff=np.clip(prepared.tau_ff[r.v_index], -r.effort, r.effort))
 
     def close(self) -> None:
         """Release what the controller holds outside this process (the filter worker)."""

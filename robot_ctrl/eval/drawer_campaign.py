@@ -55,6 +55,7 @@ class DrawerTrial:
     seed: int | None = None  # the draw's seed (random trials)
     dataset: str | None = None  # demonstration set of the primitives (None: the robot's); a path every worker reads
     sources: str = "3+2"  # periodic sources of the primitives' mixture model, FIRST+EXTRA
+    robot: str | None = None  # robot config name (None: the command line's default robot)
 
     @property
     def id(self) -> str:
@@ -68,7 +69,8 @@ def _ours(t: DrawerTrial) -> tuple[str, ...]:
     """The method of the thesis: synthesis → WPG → dynamic filter → stack of tasks."""
     jump = ("--goal-jump", f"{t.jump[0]:g}:{t.jump[1]:g}") if t.jump else ()
     dataset = ("--dataset", t.dataset) if t.dataset else ()
-    return ("drawer", "--distance", f"{t.distance:g}", "--slot", t.slot, "--speed", t.speed.value,
+    robot = ("--robot", t.robot) if t.robot else ()
+    return ("drawer", *robot, "--distance", f"{t.distance:g}", "--slot", t.slot, "--speed", t.speed.value,
             "--dynfilter", t.dynfilter.value, "--sources", t.sources, *jump, *dataset)
 
 
@@ -90,7 +92,7 @@ METHODS: dict[str, Callable[[DrawerTrial], tuple[str, ...]]] = {"ours": _ours, "
                                                                  "naive": _naive, "wpg-direct": _ours}
 
 
-def method_dataset(method: str, dataset: str | None, robot: str = "talos") -> str | None:
+def method_dataset(method: str, dataset: str | None, robot: str) -> str | None:
     """The demonstration set a method's primitives are learned from (``dataset``: the campaign's
     ``--dataset``, None for the robot's default)."""
     return str(kinematic_dataset_path(robot)) if method == "wpg-direct" else dataset

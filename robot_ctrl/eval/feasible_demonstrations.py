@@ -65,9 +65,10 @@ SNAP_WINDOW = 0.1  # [s] an action switch this close to a touch-down starts at t
 BODY_BASE_CHANNELS = ("base_z", "base_roll", "base_pitch")
 
 
-def feasible_trials(dataset: Path) -> list[DrawerTrial]:
-    """The runs: every base at every speed class, with primitives learned from ``dataset``."""
-    return [DrawerTrial(i * len(FEASIBLE_SPEEDS) + j, "ours", d, slot, speed, dataset=str(Path(dataset).resolve()))
+def feasible_trials(dataset: Path, robot: str) -> list[DrawerTrial]:
+    """The runs of ``robot``: every base at every speed class, with primitives learned from ``dataset``."""
+    return [DrawerTrial(i * len(FEASIBLE_SPEEDS) + j, "ours", d, slot, speed, dataset=str(Path(dataset).resolve()),
+                        robot=robot)
             for i, (d, slot) in enumerate(FEASIBLE_BASES) for j, speed in enumerate(FEASIBLE_SPEEDS)]
 
 
@@ -149,7 +150,7 @@ def record_feasible_set(robot: RobotModel, source: Path, runs_dir: Path, backend
     """Run the feasible trials (primitives from the kinematic set ``source``) into ``runs_dir``
     (resumable), build the set from them and save it to ``out``; None when interrupted. Beside the
     runs: ``feasible_runs.json`` (their rows) and ``trials.txt`` (them as a campaign's trials file)."""
-    trials = feasible_trials(source)
+    trials = feasible_trials(source, robot.name)
     run = run_drawer_trials(trials, runs_dir, backend, progress=progress, label="feasible runs")
     if not run.complete:
         log(f"{len(run.rows)} of {len(trials)} runs done; run the same command again to finish them")

@@ -50,6 +50,11 @@ from robot_ctrl.hw.mit_protocol import REPLY_FORMATS
 from robot_ctrl.robot.config import ConfigError
 
 HW_CONFIGS = ROOT / "configs" / "hw"
+
+
+def shipped_bus_configs() -> str:
+    """The bus configs shipped in ``configs/hw/``, for messages that suggest a starting point."""
+    return " or ".join(f"configs/hw/{p.name}" for p in sorted(HW_CONFIGS.glob("*.yaml")))
 BACKENDS = ("mit_can", "dynamixel")
 
 

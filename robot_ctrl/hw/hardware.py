@@ -33,7 +33,7 @@ from pathlib import Path
 from typing import Callable, Iterator
 
 from robot_ctrl.hw.body_sensors import open_body_sensors
-from robot_ctrl.hw.bus_config import load_bus_config
+from robot_ctrl.hw.bus_config import load_bus_config, shipped_bus_configs
 from robot_ctrl.hw.disturbances import Disturbances
 from robot_ctrl.hw.drawer_cabinet import DrawerPlacement
 from robot_ctrl.hw.mujoco_backend import MujocoBackend
@@ -111,7 +111,7 @@ def _bus_backend(kind: HardwareKind, robot: RobotModel, bus_config: str | None, 
     names (if any)."""
     if bus_config is None:
         raise ConfigError(f"--hw {kind.value} needs --bus-config: the YAML naming your buses, CAN ids, directions "
-                         "and zero offsets (start from configs/hw/talos_mit_can.yaml or talos_dynamixel.yaml)")
+                          f"and zero offsets (start from {shipped_bus_configs()})")
     config = load_bus_config(bus_config, robot.joint_names)
     sensors = open_body_sensors(config, robot) if config.body_sensors else None
     if kind is HardwareKind.MIT_CAN:

@@ -133,10 +133,12 @@ class MujocoBackend(HardwareAdapter):
         self.d.qpos[self.map.base_qpos + 2] -= self._lowest_foot_point()
         if self.cabinet is not None:
             self.cabinet.place(self.d, float(self.d.qpos[self.map.base_qpos + 2]))
-        mujoco.mj_forward(self.m, self.d)
-        mujoco.mj_rnePostConstraint(self.m, self.d)  # contact wrenches for the first read
+        # The servos hold the start posture before the first read's forces are computed: with their
+        # targets still zero, the first contact wrenches would carry their pull toward the zero pose.
         self._apply_gains(self.robot.kp, self.robot.kd, np.zeros(self.nj), np.zeros(self.nj))
         self.d.ctrl[self._act] = self.d.qpos[self.map.qpos]
+        mujoco.mj_forward(self.m, self.d)
+        mujoco.mj_rnePostConstraint(self.m, self.d)  # contact wrenches for the first read
 
     def _on_activate(self) -> None:
         if self._owns_world:

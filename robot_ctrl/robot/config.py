@@ -24,11 +24,25 @@ class ConfigError(ValueError):
 
 @dataclass(frozen=True)
 class FootGeometry:
-    """Sole rectangle in the sole frame (x forward, y left) [m]."""
+    """Sole rectangle in the sole frame (x forward, y left) [m]. ``box_height``: when set, the foot's
+    collision geometry from the URDF is replaced at conversion by a box of the sole rectangle, this
+    tall, its bottom face on the sole frame (for URDFs whose feet are meshes or a few spheres)."""
 
     length: float
     width: float
     center_offset: tuple[float, float]
+    box_height: float | None = None
+
+
+@dataclass(frozen=True)
+class AddedFrame:
+    """An operational frame the URDF lacks (a sole under an ankle link), fixed to a link: its
+    position ``xyz`` [m] and orientation ``rpy`` [rad] in that link's frame."""
+
+    name: str
+    parent: str
+    xyz: tuple[float, float, float]
+    rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
 
 @dataclass(frozen=True)
@@ -37,11 +51,29 @@ class ServoGains:
 
     kp_per_effort: float
     damping_ratio: float
-    armature: str | float  # "srdf" or a rotor inertia reflected to the joint [kg·m²]
+    # "srdf", one rotor inertia reflected to the joint for every joint, or one per joint [kg·m²]
+    armature: str | float | Mapping[str, float]
 
+
+#: Walking speed of a robot whose config gives none (``walking.speed``) [m/s].
+DEFAULT_WALKING_SPEED = 0.25
 
 #: The joint roles a robot config names per side (``joints:``).
-JOINT_ROLES = ("ankle_pitch", "elbows", "grippers")
+JOINT_ROLES = ("ankle_pitch", "elbows")
+#: Roles only the walk-and-reach task needs: a robot without them runs everything else. The arm's
+#: shoulder, elbow and wrist joints measure its length (the demonstrations' comfort distance).
+REACH_ROLES = ("grippers", "shoulders", "wrists")
+
+
+@dataclass(frozen=True)
+class GaitSwing:
+    """One joint's share of the walking demonstrations' upper-body motion: ``amplitude`` [rad] of a
+    ``waveform`` (``swing``: once per gait cycle; ``bob``: twice) shifted by ``phase`` [rad]."""
+
+    joint: str
+    amplitude: float
+    waveform: str
+    phase: float
 
 
 @dataclass(frozen=True)
@@ -51,13 +83,14 @@ class RobotConfig:
     name: str
     package_dir: str
     urdf: str
-    srdf: str | None
+    srdf: str | None  # None: self-collision exclusions are computed (robot_ctrl.robot.self_collision)
     base_link: str
+    added_frames: tuple[AddedFrame, ...]
     feet: Mapping[str, str]  # side ("left"/"right") -> sole frame
     hands: Mapping[str, str]  # side -> hand frame
     torso: str
     waist: str
-    joint_roles: Mapping[str, Mapping[str, str]]  # role ("ankle_pitch", "elbows", "grippers") -> side -> joint
+    joint_roles: Mapping[str, Mapping[str, str]]  # role (JOINT_ROLES, REACH_ROLES) -> side -> joint
     foot: FootGeometry
     joint_names: tuple[str, ...]  # the robot's joint order for every hardware array
     half_sitting: tuple[float, ...]  # [rad], in joint_names order
@@ -67,6 +100,9 @@ class RobotConfig:
     acceleration_fraction: float | None  # of the effort limit the IK may spend accelerating a joint; None: unbounded
     max_gain_ratio: float  # the largest kp and kd a command may carry, over the default gains
     timestep: float  # [s] physics step of the simulation backend
+    walking: Mapping[str, Any]  # WalkParams fields this robot's size calls for (robot_ctrl.wpg.params)
+    gait_swing: tuple[GaitSwing, ...]  # the walking demonstrations' upper-body motion
+    walking_speed: float = DEFAULT_WALKING_SPEED  # [m/s] the walk's default speed (``walking.speed``)
 
     @property
     def frames(self) -> dict[str, str]:
@@ -79,6 +115,15 @@ class RobotConfig:
     def joint_index(self, role: str, side: str) -> int:
         """Index (in ``joint_names``) of the joint with ``role`` on ``side``, e.g. the left gripper."""
         return self.joint_names.index(self.joint_roles[role][side])
+
+    def require_reach(self, command: str) -> None:
+        """Refuse the walk-and-reach task for a robot whose config does not name the joints it needs
+        (``REACH_ROLES``): a ConfigError that says which."""
+        missing = [role for role in REACH_ROLES if role not in self.joint_roles]
+        if missing:
+            roles = ", ".join(f"joints.{r}" for r in missing)
+            raise ConfigError(f"{command}: robot {self.name} names no {roles} in its config: the walk-and-reach task "
+                              "needs a gripper that closes round the drawer's handle")
 
 
 def available_robots() -> list[str]:
@@ -127,7 +172,10 @@ def parse_robot_config(raw: Mapping[str, Any], source: str = "robot config") -> 
         if set(sides) != {"left", "right"}:
             raise ConfigError(f"{source}: frames.{group} must have exactly the keys 'left' and 'right'")
     roles = _field(raw, "joints", source, Mapping)
-    for role in JOINT_ROLES:
+    unknown = sorted(set(roles) - set(JOINT_ROLES) - set(REACH_ROLES))
+    if unknown:
+        raise ConfigError(f"{source}: joints.{unknown[0]} is not a joint role ({', '.join(JOINT_ROLES + REACH_ROLES)})")
+    for role in JOINT_ROLES + tuple(r for r in REACH_ROLES if r in roles):
         sides = _field(roles, role, f"{source}: joints", Mapping)
         if set(sides) != {"left", "right"}:
             raise ConfigError(f"{source}: joints.{role} must have exactly the keys 'left' and 'right'")
@@ -141,16 +189,20 @@ def parse_robot_config(raw: Mapping[str, Any], source: str = "robot config") -> 
     for joint, angle in posture.items():
         if not isinstance(angle, (int, float)) or not math.isfinite(angle) or abs(angle) > 2 * math.pi:
             raise ConfigError(f"{source}: half_sitting.{joint} = {angle!r} must be a finite angle in [-2π, 2π] rad")
-    for role in JOINT_ROLES:
+    for role in roles:
         for side, joint in roles[role].items():
             if joint not in posture:
                 raise ConfigError(f"{source}: joints.{role}.{side} = {joint!r} is not a joint of half_sitting")
     servo = _field(raw, "servo", source, Mapping)
-    armature = _field(servo, "armature", f"{source}: servo", (str, int, float))
-    if isinstance(armature, str) and armature != "srdf":
-        raise ConfigError(f"{source}: servo.armature must be 'srdf' or a number [kg·m²], got {armature!r}")
-    if not isinstance(armature, str) and not (0.0 <= armature <= 10.0):
-        raise ConfigError(f"{source}: servo.armature = {armature} is outside the allowed range [0, 10] kg·m²")
+    armature = _armature(servo, posture, source)
+    box_height = None if foot.get("box_height") is None else _number(foot, "box_height", f"{source}: foot", 0.001, 0.2)
+    added = _added_frames(raw.get("added_frames") or {}, source)
+    walking = dict(raw.get("walking") or {})
+    if not isinstance(raw.get("walking") or {}, Mapping):
+        raise ConfigError(f"{source}: walking must map walking parameters to values")
+    speed = (_number(walking, "speed", f"{source}: walking", 0.02, 0.5) if "speed" in walking
+             else DEFAULT_WALKING_SPEED)
+    walking.pop("speed", None)
     limits = _field(raw, "limits", source, Mapping)
     sim = _field(raw, "simulation", source, Mapping)
     return RobotConfig(
@@ -159,22 +211,24 @@ def parse_robot_config(raw: Mapping[str, Any], source: str = "robot config") -> 
         urdf=_field(desc, "urdf", f"{source}: description", str),
         srdf=desc.get("srdf"),
         base_link=_field(desc, "base_link", f"{source}: description", str),
+        added_frames=added,
         feet=dict(feet),
         hands=dict(hands),
         torso=_field(frames, "torso", f"{source}: frames", str),
         waist=_field(frames, "waist", f"{source}: frames", str),
-        joint_roles={role: dict(roles[role]) for role in JOINT_ROLES},
+        joint_roles={role: dict(sides) for role, sides in roles.items()},
         foot=FootGeometry(
             length=_number(foot, "length", f"{source}: foot", 0.01, 1.0),
             width=_number(foot, "width", f"{source}: foot", 0.01, 1.0),
             center_offset=(float(offset[0]), float(offset[1])),
+            box_height=box_height,
         ),
         joint_names=tuple(posture),
         half_sitting=tuple(float(a) for a in posture.values()),
         servo=ServoGains(
             kp_per_effort=_number(servo, "kp_per_effort", f"{source}: servo", 0.1, 1000.0),
             damping_ratio=_number(servo, "damping_ratio", f"{source}: servo", 0.0, 10.0),
-            armature=armature if isinstance(armature, str) else float(armature),
+            armature=armature,
         ),
         position_margin=_number(limits, "position_margin", f"{source}: limits", 0.0, 0.5),
         velocity_fraction=_number(limits, "velocity_fraction", f"{source}: limits", 0.01, 1.0),
@@ -182,4 +236,56 @@ def parse_robot_config(raw: Mapping[str, Any], source: str = "robot config") -> 
                                else _number(limits, "acceleration_fraction", f"{source}: limits", 0.01, 1.0)),
         max_gain_ratio=_number(limits, "max_gain_ratio", f"{source}: limits", 1.0, 10.0),
         timestep=_number(sim, "timestep", f"{source}: simulation", 1e-4, 0.01),
+        walking=walking,
+        walking_speed=speed,
+        gait_swing=_gait_swing(raw.get("gait_swing") or {}, posture, source),
     )
+
+
+def _gait_swing(raw: Mapping[str, Any], posture: Mapping[str, Any], source: str) -> tuple[GaitSwing, ...]:
+    if not isinstance(raw, Mapping):
+        raise ConfigError(f"{source}: gait_swing must map joints to [amplitude rad, swing|bob, phase rad]")
+    out = []
+    for joint, spec in raw.items():
+        where = f"{source}: gait_swing.{joint}"
+        if joint not in posture:
+            raise ConfigError(f"{where}: not a joint of half_sitting")
+        if not (isinstance(spec, list) and len(spec) == 3 and spec[1] in ("swing", "bob")
+                and all(isinstance(v, (int, float)) and math.isfinite(v) for v in (spec[0], spec[2]))
+                and abs(spec[0]) <= 1.0):
+            raise ConfigError(f"{where} must be [amplitude in [-1, 1] rad, swing or bob, phase rad], got {spec!r}")
+        out.append(GaitSwing(joint, float(spec[0]), spec[1], float(spec[2])))
+    return tuple(out)
+
+
+def _armature(servo: Mapping[str, Any], posture: Mapping[str, Any], source: str) -> str | float | dict[str, float]:
+    armature = _field(servo, "armature", f"{source}: servo", (str, int, float, Mapping))
+    if isinstance(armature, str):
+        if armature != "srdf":
+            raise ConfigError(f"{source}: servo.armature must be 'srdf', a number or a joint -> number map [kg·m²], "
+                              f"got {armature!r}")
+        return armature
+    if isinstance(armature, Mapping):
+        unknown = sorted(set(armature) - set(posture))
+        if unknown:
+            raise ConfigError(f"{source}: servo.armature names joints not in half_sitting: {unknown}")
+        return {joint: _number(armature, joint, f"{source}: servo.armature", 0.0, 10.0) for joint in armature}
+    return _number(servo, "armature", f"{source}: servo", 0.0, 10.0)
+
+
+def _added_frames(raw: Mapping[str, Any], source: str) -> tuple[AddedFrame, ...]:
+    if not isinstance(raw, Mapping):
+        raise ConfigError(f"{source}: added_frames must map frame names to {{parent, xyz, rpy}}")
+    frames = []
+    for name, spec in raw.items():
+        where = f"{source}: added_frames.{name}"
+        parent = _field(spec, "parent", where, str)
+        vectors = []
+        for key in ("xyz", "rpy"):
+            value = spec.get(key, [0.0, 0.0, 0.0])
+            if not (isinstance(value, list) and len(value) == 3
+                    and all(isinstance(v, (int, float)) and math.isfinite(v) and abs(v) <= 10.0 for v in value)):
+                raise ConfigError(f"{where}.{key} must be three finite numbers in [-10, 10] (m or rad), got {value!r}")
+            vectors.append(tuple(float(v) for v in value))
+        frames.append(AddedFrame(str(name), parent, *vectors))
+    return tuple(frames)

@@ -1,8 +1,11 @@
 """Conversion of a robot's URDF into a cached MuJoCo scene (MJCF).
 
 The scene is ``sim/floor.xml`` with the robot attached under the name prefix ``<robot>/``:
-free-floating base, one position servo per actuated joint, self-collision exclusions from
-the SRDF, ``implicitfast`` integrator and the config's physics step. The result is written
+free-floating base, one position servo per actuated joint, the config's added frames (massless
+bodies fixed to their link), sole boxes in place of the feet's URDF collision geometry where the
+config asks, self-collision exclusions from the SRDF (computed, when the robot ships none, by
+:mod:`robot_ctrl.robot.self_collision`), ``implicitfast`` integrator and the config's physics step.
+The result is written
 to a cache (``$ROBOT_CTRL_CACHE`` or ``~/.cache/robot_ctrl``) keyed by a hash of everything
 that goes into it; nothing generated is ever committed.
 
@@ -26,8 +29,10 @@ import mujoco
 import numpy as np
 
 from robot_ctrl import ROOT, __version__
-from robot_ctrl.robot.config import ConfigError, RobotConfig
+from robot_ctrl.robot import self_collision
+from robot_ctrl.robot.config import ConfigError, FootGeometry, RobotConfig
 from robot_ctrl.robot.description import RobotFiles, example_robot_data_version, read_srdf, resolve_package_uris
+from robot_ctrl.robot.self_collision import compute_exclusions
 
 SCENE = ROOT / "sim" / "floor.xml"
 _COMPILER = '<mujoco><compiler strippath="false" discardvisual="true" fusestatic="false" autolimits="true"/></mujoco>'
@@ -39,7 +44,8 @@ def cache_dir() -> Path:
 
 def robot_spec(config: RobotConfig, files: RobotFiles, kp: np.ndarray, kd: np.ndarray,
                effort: np.ndarray, armature: np.ndarray) -> mujoco.MjSpec:
-    """The robot alone as an ``MjSpec``: free base, servos, armature and SRDF exclusions.
+    """The robot alone as an ``MjSpec``: free base, servos, armature, added frames, sole boxes and
+    self-collision exclusions.
 
     ``kp``, ``kd``, ``effort``, ``armature`` are in the config's joint order.
     """
@@ -68,12 +74,47 @@ def robot_spec(config: RobotConfig, files: RobotFiles, kp: np.ndarray, kd: np.nd
         act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
         act.forcerange = [-effort[i], effort[i]]
         act.ctrllimited = mujoco.mjtLimited.mjLIMITED_FALSE
+    for frame in config.added_frames:
+        parent = spec.body(frame.parent)
+        if parent is None:
+            raise ConfigError(f"added_frames.{frame.name}.parent {frame.parent!r} is not a link of the URDF")
+        parent.add_body(name=frame.name, pos=list(frame.xyz), quat=_quat_wxyz(frame.rpy))
+    if config.foot.box_height is not None:
+        for side, sole in config.feet.items():
+            _replace_foot_collision(spec, sole, config.foot)
+    if files.srdf is not None:
+        pairs = read_srdf(files.srdf).disabled_collisions
+    else:
+        pairs = compute_exclusions(spec, dict(zip(config.joint_names, config.half_sitting))).pairs
     bodies = {b.name for b in spec.bodies}
-    for a, b in read_srdf(files.srdf).disabled_collisions:
+    for a, b in pairs:
         if a in bodies and b in bodies:
             ex = spec.add_exclude()
             ex.bodyname1, ex.bodyname2 = a, b
     return spec
+
+
+def _quat_wxyz(rpy: tuple[float, float, float]) -> list[float]:
+    quat = np.zeros(4)
+    mujoco.mju_euler2Quat(quat, np.asarray(rpy, dtype=float), "XYZ")
+    return quat.tolist()
+
+
+def _replace_foot_collision(spec: mujoco.MjSpec, sole: str, foot: FootGeometry) -> None:
+    """The foot link's collision geometry (the sole frame's parent link) replaced by one box: the sole
+    rectangle, ``foot.box_height`` tall, its bottom face on the sole frame. The box belongs to the
+    foot link, massless (the URDF's inertial data holds the foot's mass): a contact on a massless body
+    of its own is numerically softer in MuJoCo, and G1 standing on one foot tipped over on it."""
+    body = spec.body(sole)
+    link = body.parent
+    for geom in list(link.geoms) + list(body.geoms):
+        spec.delete(geom)
+    half = np.array([foot.length / 2, foot.width / 2, foot.box_height / 2])
+    rotation = np.zeros(9)
+    mujoco.mju_quat2Mat(rotation, np.asarray(body.quat, dtype=float))
+    centre = np.asarray(body.pos, dtype=float) + rotation.reshape(3, 3) @ [*foot.center_offset, half[2]]
+    link.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=half.tolist(), mass=0.0, pos=centre.tolist(),
+                  quat=list(body.quat))
 
 
 def scene_spec(robots: dict[str, mujoco.MjSpec], timestep: float, scene: Path = SCENE) -> mujoco.MjSpec:
@@ -96,7 +137,9 @@ def cached_scene_mjcf(config: RobotConfig, files: RobotFiles, kp: np.ndarray, kd
     key = hashlib.sha256()
     # The scene names its mesh files by absolute path: where the description lies is part of the key,
     # so two installs (two virtual environments) never share a scene that points into the other.
+    # The converter's own code is part of the key: a changed conversion never reuses an old scene.
     for part in (__version__, mujoco.__version__, example_robot_data_version(), repr(config), repr(prefixes),
+                 Path(__file__).read_bytes(), Path(self_collision.__file__).read_bytes(),
                  str(files.urdf.resolve()), files.urdf.read_bytes(), files.srdf.read_bytes() if files.srdf else b"",
                  SCENE.read_bytes(), kp.tobytes(), kd.tobytes(), effort.tobytes(), armature.tobytes()):
         key.update(part if isinstance(part, bytes) else part.encode())

@@ -11,11 +11,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
+from typing import Mapping
 
 import numpy as np
 import pinocchio as pin
 
-from robot_ctrl.robot.config import ConfigError, RobotConfig, load_robot_config
+from robot_ctrl.robot.config import AddedFrame, ConfigError, RobotConfig, load_robot_config
 from robot_ctrl.robot.description import RobotFiles, read_srdf, robot_files
 from robot_ctrl.robot.mjcf import cached_scene_mjcf
 
@@ -84,6 +85,8 @@ def load_robot(name_or_config: str | RobotConfig) -> RobotModel:
     q_index = np.array([model.joints[j].idx_q for j in jids])
     v_index = np.array([model.joints[j].idx_v for j in jids])
 
+    for frame in config.added_frames:
+        add_frame(model, frame)
     frame_ids = {}
     for role, frame in config.frames.items():
         if not model.existFrame(frame):
@@ -94,6 +97,8 @@ def load_robot(name_or_config: str | RobotConfig) -> RobotModel:
     if config.servo.armature == "srdf":
         rotor = read_srdf(files.srdf).rotor_armature
         armature = np.array([rotor.get(n, 0.0) for n in config.joint_names])
+    elif isinstance(config.servo.armature, Mapping):
+        armature = np.array([config.servo.armature.get(n, 0.0) for n in config.joint_names])
     else:
         armature = np.full(len(jids), float(config.servo.armature))
     model.armature[v_index] = armature
@@ -117,6 +122,19 @@ def load_robot(name_or_config: str | RobotConfig) -> RobotModel:
         lower=lower, upper=upper, velocity_limit=model.velocityLimit[v_index].copy(), effort=effort,
         armature=armature, kp=kp, kd=kd, joint_inertia=mass_diag, q_half_sitting=q0,
     )
+
+
+def add_frame(model: pin.Model, frame: AddedFrame) -> None:
+    """Add a config's frame to the Pinocchio model, fixed to its parent link."""
+    if model.existFrame(frame.name):
+        raise ConfigError(f"added_frames.{frame.name}: the URDF already has a frame of that name")
+    if not model.existFrame(frame.parent, pin.FrameType.BODY):
+        raise ConfigError(f"added_frames.{frame.name}.parent {frame.parent!r} is not a link of the URDF")
+    parent_id = model.getFrameId(frame.parent, pin.FrameType.BODY)
+    parent = model.frames[parent_id]
+    offset = pin.SE3(pin.rpy.rpyToMatrix(*frame.rpy), np.array(frame.xyz))
+    model.addFrame(pin.Frame(frame.name, parent.parentJoint, parent_id, parent.placement * offset,
+                             pin.FrameType.OP_FRAME))
 
 
 def configuration(robot: RobotModel, base_pos: np.ndarray, base_quat_xyzw: np.ndarray, joints: np.ndarray) -> np.ndarray:

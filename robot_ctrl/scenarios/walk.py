@@ -50,7 +50,6 @@ def run_walk(robot: RobotModel, hw: SafetyLayer, goal: WalkGoal, settings: WalkS
     ``disturbances``: the report lists them) and report; ``recorders`` (a tick log) see every tick;
     ``pacer`` keeps a real robot's ticks on time."""
     s, options = settings, settings.controller
-    dt, params = options.control_dt, options.walk_params
     controller, run = start_run(robot, hw, s.base_state, lambda seen: WalkingController(
         robot, seen, options, upper_body=arm_motion(s.arms, robot)), pacer, recorders, log)
     start = base_pose_xy_yaw(run.state.base_pos, run.state.base_quat_xyzw)
@@ -61,13 +60,14 @@ def run_walk(robot: RobotModel, hw: SafetyLayer, goal: WalkGoal, settings: WalkS
     capture = PushCapture(controller, disturbances.pushes, float(start[2]))
     stood = HeldFor(lambda: controller.standing and path.done, STAND_AFTER, "stood at the goal")
     bar = ProgressBar(path.duration + STAND_AFTER + 1.0, progress)
-    result = run.loop(dt, bar, recorders=[walk, capture],
+    result = run.loop(options.control_dt, bar, recorders=[walk, capture],
                       stops=[stood, TimeLimit(path.time_limit, "did not finish the path")])
     log(result.stop_reason)
     filtered = options.dynfilter is not FilterMode.OFF
     report = run.metrics.report() | {"robot": robot.name} | walk.report(result.states[0], goal) | dict(
-        stood_s=round(stood.held(result.states[0].t), 3), single_support_s=params.single_support,
-        double_support_s=params.double_support, stabilizer=options.stabilize, push_recovery=options.recover_pushes,
+        stood_s=round(stood.held(result.states[0].t), 3), single_support_s=controller.params.single_support,
+        double_support_s=controller.params.double_support, stabilizer=options.stabilize,
+        push_recovery=options.recover_pushes,
         push_recoveries=controller.push_recoveries, arms=s.arms.value,
         dynfilter=options.dynfilter.value, dynfilter_passes=options.dynfilter_passes if filtered else 0,
         dynfilter_fallbacks=controller.filter_fallbacks, dynfilter_worker=options.dynfilter_worker and filtered,

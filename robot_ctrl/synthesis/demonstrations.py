@@ -47,7 +47,7 @@ from robot_ctrl import ROOT
 from robot_ctrl.geometry.drawer import SLOTS, DrawerGeometry
 from robot_ctrl.geometry.minimum_jerk import minimum_jerk
 from robot_ctrl.robot.model import RobotModel
-from robot_ctrl.sot.whole_body_ik import TRUNK_POSTURE_FACTOR, WholeBodyIK
+from robot_ctrl.sot.whole_body_ik import TRUNK_POSTURE_FACTOR, WholeBodyIK, chain_dofs, upper_body_dofs
 
 FORMAT_VERSION = 2
 PELVIS_CHANNELS = ("vx", "vy", "wz")
@@ -57,18 +57,22 @@ HUMAN_HAND_GRIP = 0.075  # [m] wrist to the centre of the closed palm (Winter: h
 
 
 def upper_body_joints(robot: RobotModel) -> tuple[str, ...]:
-    """The joints the synthesis drives: torso, arms and head, in the robot's joint order."""
-    return tuple(n for n in robot.joint_names if n.startswith(("torso_", "arm_", "head_")))
+    """The joints the synthesis drives: every joint but the legs' and the grippers (torso, arms and
+    head), in the robot's joint order."""
+    upper = set(upper_body_dofs(robot).tolist())
+    grippers = set(robot.config.joint_roles.get("grippers", {}).values())
+    return tuple(n for n, v in zip(robot.joint_names, robot.v_index) if v in upper and n not in grippers)
 
 
 def comfort_distance(robot: RobotModel, geometry: DrawerGeometry = DrawerGeometry()) -> float:
     """Pelvis-to-drawer distance of the last action [m]: the human 0.6 m x robot/human arm length,
     plus how much farther beyond its wrist the robot's hand closes than a person's palm does. The
-    robot's arm is shoulder (arm_left_2) to elbow (arm_left_4) to wrist (arm_left_7); its hand closes
-    at the handle bar, ``bar_from_grip`` beyond the gripper base."""
+    robot's arm is shoulder to elbow to wrist (the config's ``joints.shoulders``, ``elbows``,
+    ``wrists``); its hand closes at the handle bar, ``bar_from_grip`` beyond the gripper base."""
     data = robot.pin.createData()
     pin.framesForwardKinematics(robot.pin, data, robot.q_half_sitting)
-    p = [data.oMi[robot.pin.getJointId(f"arm_left_{i}_joint")].translation for i in (2, 4, 7)]
+    roles = robot.config.joint_roles
+    p = [data.oMi[robot.pin.getJointId(roles[role]["left"])].translation for role in ("shoulders", "elbows", "wrists")]
     arm = float(np.linalg.norm(p[1] - p[0]) + np.linalg.norm(p[2] - p[1]))
     gripper = data.oMf[robot.frame_ids["left_hand"]].translation
     hand = float(np.linalg.norm(gripper - p[2]) + np.linalg.norm(geometry.bar_from_grip))
@@ -190,8 +194,8 @@ class _Trial:
         # A person reaches with the arms, keeps the trunk quiet and the hips where they are: no CoM
         # task (it would swing the other arm to hold the centre of mass); the legs hold the pelvis
         # through their posture, weighted as the torso's.
-        self.ik.posture.set_joint_weights(np.where([n.startswith(("torso_", "leg_")) for n in robot.joint_names],
-                                                   TRUNK_POSTURE_FACTOR, 1.0))
+        trunk = np.concatenate([chain_dofs(robot, role) for role in ("torso", "left_foot", "right_foot")])
+        self.ik.posture.set_joint_weights(np.where(np.isin(robot.v_index, trunk), TRUNK_POSTURE_FACTOR, 1.0))
         self.ik.com.active = False
         self.base = self.ik.posture.target.copy()  # half-sitting inside the soft limits
         self.upper = np.array([robot.joint_names.index(n) for n in upper_body_joints(robot)])
@@ -199,16 +203,13 @@ class _Trial:
         self.rows: list[np.ndarray] = []
 
     def swing_posture(self, cycle: float, amplitude: float) -> np.ndarray:
-        """Periodic upper-body posture at gait phase ``cycle`` [0, 1): elbows swing opposite to each
-        other, the torso counter-rotates, the head keeps the gaze."""
+        """Periodic upper-body posture at gait phase ``cycle`` [0, 1): the robot config's
+        ``gait_swing`` (arms swinging opposite to each other, the torso counter-rotating...)."""
         q = self.base.copy()
         c = 2 * np.pi * cycle
-        for name, amp, shape, phase in (("arm_left_4_joint", 0.20, _SWING, np.pi), ("arm_right_4_joint", 0.20, _SWING, 0.0),
-                                        ("arm_left_1_joint", 0.08, _SWING, np.pi + 0.4),
-                                        ("arm_right_1_joint", 0.08, _SWING, 0.4), ("torso_1_joint", 0.06, _SWING, 0.3),
-                                        ("head_2_joint", -0.05, _SWING, 0.3), ("torso_2_joint", 0.02, _BOB, 0.5),
-                                        ("head_1_joint", 0.02, _BOB, 1.0)):
-            q[self.index[name]] += amplitude * amp * _waveform(shape, c + phase)
+        for swing in self.robot.config.gait_swing:
+            q[self.index[swing.joint]] += amplitude * swing.amplitude * _waveform(_WAVEFORMS[swing.waveform],
+                                                                                  c + swing.phase)
         return q
 
     def start_at(self, posture: np.ndarray) -> None:
@@ -235,6 +236,7 @@ class _Trial:
 # a few harmonics, shifted per joint. (harmonic, relative amplitude, phase [rad]) of the two shapes:
 _SWING = ((1, 1.0, 0.0), (2, 0.3, 0.7), (3, 0.12, 1.3))  # arm swing and trunk counter-rotation
 _BOB = ((2, 1.0, 0.0), (4, 0.35, 0.9))  # twice per gait cycle: trunk and head pitch, forward speed
+_WAVEFORMS = {"swing": _SWING, "bob": _BOB}
 
 
 def _waveform(shape, c: float) -> float:

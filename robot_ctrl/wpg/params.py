@@ -1,5 +1,8 @@
 """WalkParams: timing, geometry and weights of the walking pattern generator (SI units).
 
+The defaults are Talos's; a robot config's ``walking:`` section gives the fields its robot needs
+otherwise (:meth:`WalkParams.of_robot`).
+
 The robot-dependent fields (``com_height``, ``foot_length``, ``foot_width``, ``step_width``) may be
 left as None: the walking controller derives them from the robot at its start posture
 (:meth:`WalkParams.for_robot`), and refuses values given that contradict it.
@@ -10,6 +13,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, fields
+from typing import Any, Mapping
 
 #: Fields the controller derives from the robot when they are not given.
 ROBOT_FIELDS = ("com_height", "foot_length", "foot_width", "step_width")
@@ -67,6 +71,19 @@ class WalkParams:
                                  f"sample_time = {self.sample_time} s")
         if self.resolved and 2 * self.zmp_margin >= min(self.foot_length, self.foot_width):
             raise ValueError(f"WalkParams.zmp_margin = {self.zmp_margin} m leaves no room inside the sole")
+
+    @classmethod
+    def of_robot(cls, walking: Mapping[str, Any], **given: Any) -> "WalkParams":
+        """The defaults, with a robot config's ``walking:`` fields over them (a robot's size calls for
+        its own step timing, reach and ZMP margin) and the ``given`` fields over those."""
+        names = {f.name for f in fields(cls)}
+        for name in walking:
+            if name not in names or name in ROBOT_FIELDS:
+                allowed = ", ".join(sorted(names - set(ROBOT_FIELDS)))
+                raise ValueError(f"robot config walking.{name} is not a walking parameter a config sets "
+                                 f"(allowed: {allowed}; {', '.join(ROBOT_FIELDS)} come from the robot itself)")
+        values = {k: tuple(v) if isinstance(v, list) else v for k, v in walking.items()}
+        return cls(**{**values, **given})
 
     @property
     def resolved(self) -> bool:
