@@ -14,7 +14,7 @@ from robot_ctrl.cli import main
 from robot_ctrl.control.walking_controller import WalkingController
 from robot_ctrl.hw import dynamixel_protocol as dxl
 from robot_ctrl.hw.adapter import HardwareFault, LifecycleError
-from robot_ctrl.hw.bus_config import load_bus_config
+from robot_ctrl.hw.bus_config import HW_CONFIGS, load_bus_config
 from robot_ctrl.hw.dynamixel_backend import DynamixelBackend
 from robot_ctrl.hw.dynamixel_emulator import DynamixelEmulator
 from robot_ctrl.hw.mit_can_backend import MitCanBackend
@@ -23,6 +23,7 @@ from robot_ctrl.hw.mit_protocol import MitRanges, pack_command, pack_reply, unpa
 from robot_ctrl.hw.mujoco_backend import MujocoBackend
 from robot_ctrl.hw.safety import SafetyLayer, SafetyLimits
 from robot_ctrl.hw.types import JointCommand, LifecycleState
+from robot_ctrl.robot import load_robot
 from robot_ctrl.robot.config import ConfigError
 
 DT = 0.005
@@ -932,3 +933,17 @@ def test_gains_and_torques_cross_a_gear_ratio_of_nine(talos, tmp_path):
     error_m, rate_m = rng.uniform(-0.5, 0.5, talos.nj), rng.uniform(-1, 1, talos.nj)
     q_back, dq_back, joint_torque = config.to_joint(p - error_m, v - rate_m, kp_m * error_m + kd_m * rate_m + tau_m)
     np.testing.assert_allclose(joint_torque, talos.kp * (q - q_back) + talos.kd * (dq - dq_back) + tau, rtol=1e-9)
+
+
+@pytest.mark.parametrize("path", sorted(HW_CONFIGS.glob("*.yaml")), ids=lambda p: p.stem)
+def test_each_shipped_bus_config_fits_its_robot(path):
+    """``configs/hw/<robot>_<bus>.yaml`` maps every joint of its robot, and an MIT drive model's ranges
+    carry what the controller sends: torques up to the effort limit, the servo gains."""
+    robot = load_robot(path.stem.split("_")[0])
+    config = load_bus_config(path, robot.joint_names)
+    assert tuple(m.joint for m in config.motors) == robot.joint_names
+    if config.backend != "mit_can":
+        return
+    for motor, effort, kp, kd in zip(config.motors, robot.effort, robot.kp, robot.kd):
+        ranges = config.models[motor.model]
+        assert ranges["torque"][1] >= effort and ranges["kp"][1] >= kp and ranges["kd"][1] >= kd, motor.joint
