@@ -2,7 +2,7 @@
 
 Ours: the walking pattern generator re-solves its MPC (16 samples of 0.1 s, two free footsteps)
 every 0.1 s over a 3 m walk at 0.25 m/s started from standing; we time ``WalkingMPC.solve``
-(QP assembly + CasADi/daqp solve) and the whole ``update`` (horizon construction included).
+(QP assembly + daqp solve) and the whole ``update`` (horizon construction included).
 
 placo (optional ``bench`` extra): same timing (0.7 s single support, 0.1 s double support,
 0.1 s planning step, 1.6 s planned ahead, CoM height, sole size, feet spacing), 15 steps of
@@ -11,7 +11,8 @@ call placo's own walking loop makes). placo needs frames named ``left_foot``, ``
 and ``trunk``: a temporary copy of the Talos URDF with those fixed frames added is written to a
 temporary folder at run time (nothing is committed).
 
-``--solvers`` also times the CasADi QP plugins on the same walk (how daqp was chosen).
+``--solvers`` also times the CasADi QP plugins on the same walk (how daqp was chosen, and what
+CasADi's interface to it costs over calling it directly).
 Run: ``python benchmarks/bench_wpg.py [--solvers]``.
 """
 
@@ -121,10 +122,10 @@ def main() -> None:
     umed, up99 = stats_ms(updates)
     results = {"ours_update_ms_median": round(umed, 4), "ours_solve_ms_median": round(med, 4),
                "placo_replan_ms_median": None, "ratio_placo_update": None}
-    print(f"robot_ctrl walking MPC (CasADi + {params.solver}), 3 m at 0.25 m/s, {len(solves)} solves: "
+    print(f"robot_ctrl walking MPC ({params.solver}), 3 m at 0.25 m/s, {len(solves)} solves: "
           f"median {med:.3f} ms, p99 {p99:.3f} ms  (whole update incl. horizon: median {umed:.3f} ms, p99 {up99:.3f} ms)")
     if args.solvers:
-        for plugin in ("qpoases", "daqp", "osqp", "hpipm"):
+        for plugin in ("casadi-daqp", "qpoases", "osqp", "hpipm"):
             try:
                 s, _ = run_ours(WalkParams(**{**params.__dict__, "solver": plugin}))
                 m, q = stats_ms(s)

@@ -9,6 +9,7 @@ from robot_ctrl.geometry import PlanarMove, rotation
 from robot_ctrl.wpg.footstep import Footstep
 from robot_ctrl.wpg.generator import STOP_TOLERANCE, WalkingPatternGenerator
 from robot_ctrl.wpg.lipm import com_at, horizon_matrices
+from robot_ctrl.wpg.mpc import WalkingMPC
 from robot_ctrl.wpg.params import WalkParams
 
 PARAMS = WalkParams(com_height=0.88, step_width=0.17, foot_length=0.21, foot_width=0.13)
@@ -275,3 +276,26 @@ def test_time_scale_stretches_the_step_period_and_keeps_the_speed(scale):
 def test_time_scale_range_is_checked():
     with pytest.raises(ValueError, match=r"time_scale = 3.0 is outside the allowed range \[0.5, 2.0\]"):
         standing_generator().set_time_scale(3.0)
+
+
+def test_daqp_called_directly_solves_the_qp_casadi_solves():
+    """The MPC hands daqp its arrays itself (only the rows in use, equality rows for fixed footsteps);
+    over a walk, a turn and a stop onto fixed footsteps, every sample's solution is the one of the same
+    solver behind CasADi's interface."""
+    problems = []
+    gen = standing_generator()
+    solve = gen.mpc.solve
+    gen.mpc.solve = lambda prob: problems.append(prob) or solve(prob)
+    gen.set_velocity(0.25, 0.05, 0.2)
+    for _ in range(25):
+        gen.update()
+    gen.stop_at(Footstep("left", 0.6, 0.3, 0.3), Footstep("right", 0.65, 0.13, 0.3))
+    for _ in range(25):
+        gen.update()
+    assert any(p.fixed for p in problems)
+    through_casadi = WalkingMPC(dataclasses.replace(PARAMS, solver="casadi-daqp"))
+    for prob in problems:
+        direct, reference = solve(prob), through_casadi.solve(prob)
+        np.testing.assert_allclose(direct.footsteps, reference.footsteps, atol=1e-6)
+        np.testing.assert_allclose(direct.zmp, reference.zmp, atol=1e-6)
+        np.testing.assert_allclose(direct.com, reference.com, atol=1e-6)

@@ -13,12 +13,14 @@ it. With the LIP predictions ``Ẋ = Pvs x̂ + Pvu U``, ``Z = Pzs x̂ + Pzu U`` 
 
 Supports, references and anchors are affine in F (``FootRef``), so everything is linear.
 
-QP interface: CasADi ``conic``, plugin chosen by measurement (``benchmarks/bench_wpg.py --solvers``;
-36 variables, 140 dense constraint rows, a 0.25 m/s walk with turning): daqp and qpOASES solved in
-the same median time, daqp with the lower p99 and without qpOASES's
-licence banner on stdout; osqp's answers violated the ZMP constraints by up to 1.6e-5 m (ADMM
-tolerance), and hpipm's interface rejected the dense constraint pattern. Hence daqp, a dual
-active-set solver for small dense QPs (``WalkParams.solver`` selects another).
+QP solver: daqp (Arnström et al. 2022), a dual active-set solver for small dense QPs, called
+directly through its Python binding with the numpy arrays and only the constraint rows in use:
+CasADi's ``conic`` interface to the same solver cost more than the solve itself (converting the
+dense H and A to CasADi matrices, then the call; docs/walking.md). ``WalkParams.solver`` selects a
+CasADi ``conic`` plugin instead (``casadi-daqp``, ``qpoases``, ``osqp``, ``hpipm``), as
+``benchmarks/bench_wpg.py --solvers`` does to compare them; daqp was chosen among them (the same
+median as qpOASES, the lower p99, no licence banner; osqp's ADMM tolerance let the ZMP constraints
+be violated, hpipm's interface rejected the dense constraint pattern).
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import casadi as ca
+import daqp
 import numpy as np
 
 from robot_ctrl.geometry import rotation
@@ -35,6 +38,9 @@ from robot_ctrl.wpg.params import WalkParams
 
 MAX_EDGES = 8  # a hull of two rectangles has at most 8 edges
 
+DIRECT = "daqp"  # WalkParams.solver that calls daqp directly; any other names a CasADi conic plugin
+_DAQP_EQUALITY = 5  # daqp's constraint sense for an equality row: active and immutable
+_DAQP_OPTIMAL = (1, 2)  # daqp exit flags of an optimal solution (2: optimal, soft constraints violated)
 _PLUGIN_OPTIONS = {
     "qpoases": {"printLevel": "none", "error_on_fail": False},
     "hpipm": {"hpipm": {"iter_max": 100}, "error_on_fail": False},
@@ -96,9 +102,12 @@ class WalkingMPC:
         self.N = N
         self.nw = 2 * N + 4
         self.nc = MAX_EDGES * N + 8 + 4
-        opts = _PLUGIN_OPTIONS.get(params.solver, {})
         self._sp_h, self._sp_a = ca.Sparsity.dense(self.nw, self.nw), ca.Sparsity.dense(self.nc, self.nw)
-        self.solver = ca.conic("wpg", params.solver, {"h": self._sp_h, "a": self._sp_a}, opts)
+        if params.solver == DIRECT:
+            self.solver = None
+        else:
+            plugin = params.solver.removeprefix("casadi-")
+            self.solver = ca.conic("wpg", plugin, {"h": self._sp_h, "a": self._sp_a}, _PLUGIN_OPTIONS.get(plugin, {}))
         self.sample_time = None
         self._set_sample_time(params.sample_time)
         self._x0 = np.zeros(self.nw)
@@ -126,6 +135,30 @@ class WalkingMPC:
     def solve(self, prob: MpcProblem) -> MpcSolution:
         self._set_sample_time(prob.sample_time or self.p.sample_time)
         H, g, A, lba, uba = self.assemble(prob)
+        w = self._solve_direct(H, g, A, lba, uba) if self.solver is None else self._solve_casadi(H, g, A, lba, uba)
+        violation = np.max(np.maximum(A @ w - uba, lba - A @ w))
+        if violation > 1e-5:
+            raise MpcInfeasible(f"walking QP solution violates its constraints by {violation:.2e}")
+        N = self.N
+        # Warm start of a CasADi plugin for the next sample: the jerks shifted by one sample.
+        self._x0 = np.concatenate([w[1:N], w[N - 1 : N], w[N + 1 : 2 * N], w[2 * N - 1 : 2 * N], w[2 * N :]])
+        Ux, Uy, F = w[:N], w[N : 2 * N], w[2 * N :]
+        m = self.m
+        zmp = np.stack([m.Pzs @ prob.com_x + m.Pzu @ Ux, m.Pzs @ prob.com_y + m.Pzu @ Uy], axis=1)
+        com = np.stack([m.Pps @ prob.com_x + m.Ppu @ Ux, m.Pps @ prob.com_y + m.Ppu @ Uy], axis=1)
+        return MpcSolution(Ux, Uy, F, zmp, com)
+
+    def _solve_direct(self, H, g, A, lba, uba) -> np.ndarray:
+        used = np.isfinite(lba) | np.isfinite(uba)  # a support with fewer edges leaves rows unbounded
+        sense = np.where(lba[used] == uba[used], _DAQP_EQUALITY, 0).astype(np.intc)
+        w, _, exitflag, info = daqp.solve(H, g, A[used], uba[used], lba[used], sense)
+        self.last_stats = {"success": exitflag in _DAQP_OPTIMAL, "return_status": f"daqp exit flag {exitflag}",
+                           "iterations": info["iterations"]}
+        if exitflag not in _DAQP_OPTIMAL or not np.all(np.isfinite(w)):
+            raise MpcInfeasible(f"walking QP failed: daqp exit flag {exitflag}")
+        return w
+
+    def _solve_casadi(self, H, g, A, lba, uba) -> np.ndarray:
         # CasADi converts Python lists faster than numpy arrays.
         res = self.solver(h=ca.DM(self._sp_h, H.ravel(order="F").tolist()), g=g.tolist(),
                           a=ca.DM(self._sp_a, A.ravel(order="F").tolist()), lba=lba.tolist(), uba=uba.tolist(),
@@ -134,19 +167,9 @@ class WalkingMPC:
         w = np.asarray(res["x"]).ravel()
         if not self.last_stats.get("success", False) or not np.all(np.isfinite(w)):
             raise MpcInfeasible(f"walking QP failed: {self.last_stats.get('return_status')}")
-        violation = np.max(np.maximum(A @ w - uba, lba - A @ w))
-        if violation > 1e-5:
-            raise MpcInfeasible(f"walking QP solution violates its constraints by {violation:.2e}")
-        N = self.N
-        # Warm start for the next sample: shift the jerks by one sample.
-        self._x0 = np.concatenate([w[1:N], w[N - 1 : N], w[N + 1 : 2 * N], w[2 * N - 1 : 2 * N], w[2 * N :]])
         self._lam_a0 = np.asarray(res["lam_a"]).ravel()
         self._lam_x0 = np.asarray(res["lam_x"]).ravel()
-        Ux, Uy, F = w[:N], w[N : 2 * N], w[2 * N :]
-        m = self.m
-        zmp = np.stack([m.Pzs @ prob.com_x + m.Pzu @ Ux, m.Pzs @ prob.com_y + m.Pzu @ Uy], axis=1)
-        com = np.stack([m.Pps @ prob.com_x + m.Ppu @ Ux, m.Pps @ prob.com_y + m.Ppu @ Uy], axis=1)
-        return MpcSolution(Ux, Uy, F, zmp, com)
+        return w
 
     def assemble(self, prob: MpcProblem):
         """Dense QP ``min ½ wᵀHw + gᵀw  s.t. lba ≤ A w ≤ uba`` of one sample."""

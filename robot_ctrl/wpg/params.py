@@ -43,7 +43,7 @@ class WalkParams:
     w_zmp: float = 10.0
     w_jerk: float = 1e-4
     w_footstep: float = 30.0
-    solver: str = "daqp"  # CasADi conic plugin (see robot_ctrl.wpg.mpc)
+    solver: str = "daqp"  # daqp called directly, or a CasADi conic plugin (see robot_ctrl.wpg.mpc)
 
     @property
     def step_period(self) -> float:
