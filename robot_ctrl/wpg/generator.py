@@ -227,7 +227,6 @@ class WalkingPatternGenerator:
         half = np.array([p.foot_length / 2 - p.zmp_margin, p.foot_width / 2 - p.zmp_margin])
         supports = []
         polygons: dict[tuple[int, bool], tuple] = {}  # (segment, second half) -> (H, h, anchor)
-        velocity = np.zeros((p.horizon, 2))
         for j in range(p.horizon):
             t = (j + 1) * p.sample_time  # nominal
             k, start = segment_at(segments, t)
@@ -239,8 +238,11 @@ class WalkingPatternGenerator:
                 polygons[key] = support_halfplanes(seg, s, half)
             zmp_ref = seg.zmp_from if seg.zmp_to is None else blend(seg.zmp_from, seg.zmp_to, s)
             supports.append(SampleSupport(*polygons[key], zmp_ref))
-            heading = self.heading + self.velocity[2] * t * self.time_scale
-            velocity[j] = rotation(heading) @ self.velocity[:2]
+        # The velocity reference, turned by the integrated yaw rate at each sample (world frame).
+        heading = self.heading + self.velocity[2] * self.time_scale * p.sample_time * np.arange(1, p.horizon + 1)
+        cos, sin = np.cos(heading), np.sin(heading)
+        vx, vy = self.velocity[:2]
+        velocity = np.stack([cos * vx - sin * vy, sin * vx + cos * vy], axis=1)
         stance = FootRef.known(self.feet[self.stance])
         reach, fixed = [], {}
         nominal = np.zeros(4)

@@ -5,6 +5,7 @@ swing foot's path between two segments (for the dynamic filter's preview). World
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -75,6 +76,17 @@ def support_halfplanes(seg: Segment, s: float, half: np.ndarray) -> tuple[np.nda
     else:
         feet = seg.feet
     anchor = feet[0]
-    soles = [(f.offset - anchor.offset, f.yaw) for f in feet]
-    H, h = SupportPolygon.of_soles(soles, 2 * half[0], 2 * half[1]).halfplanes
+    soles = tuple((*(f.offset - anchor.offset).tolist(), f.yaw) for f in feet)
+    H, h = _halfplanes(soles, 2 * float(half[0]), 2 * float(half[1]))
     return H, h, anchor
+
+
+@lru_cache(maxsize=256)
+def _halfplanes(soles: tuple[tuple[float, float, float], ...], length: float, width: float):
+    """Half-planes of the soles' hull, (x, y, yaw) each relative to the anchor: the same few shapes
+    recur sample after sample (one per stance and per double support), so they are computed once.
+    Read-only: every caller shares them."""
+    H, h = SupportPolygon.of_soles([((x, y), yaw) for x, y, yaw in soles], length, width).halfplanes
+    H, h = H.copy(), h.copy()
+    H.flags.writeable = h.flags.writeable = False
+    return H, h
