@@ -1,20 +1,28 @@
-"""One stack-of-tasks IK tick for Talos: robot_ctrl's strict 3-level hierarchy vs mink's solve_ik.
+"""One stack-of-tasks IK tick for Talos: robot_ctrl's strict 3-level hierarchy vs mink's solve_ik and
+placo's KinematicsSolver.
 
 Both solve the same tasks on the same robot, from the same configuration, for a right-hand reach
 (the balance demo's): feet 6D ×2, CoM 3D, waist orientation, right-hand position, posture over
 all joints, with joint position and velocity limits. robot_ctrl solves them as a strict hierarchy
 (feet > CoM + waist > hand + posture) with quadprog; mink as one weighted QP (feet and CoM
-weighted highest). A tick is one solve plus the integration of the configuration.
+weighted highest); placo (C++) with the feet as hard constraints and the rest soft, weighted as
+mink's but for the hand, weighted up until it reaches as close as robot_ctrl's (at mink's weight it
+stops centimetres short; the script prints each one's hand error). A tick is one solve plus the
+integration of the configuration (and, for placo, its kinematics update, which robot_ctrl's tick
+includes).
 
-Prints the median and p99 tick time and the ratio mink / robot_ctrl (mink is the optional
-``bench`` extra; without it only robot_ctrl is timed). Run: ``python benchmarks/bench_sot.py``.
+Prints the median and p99 tick time and the ratios mink / robot_ctrl and placo / robot_ctrl (mink
+and placo are the optional ``bench`` extra; without them only robot_ctrl is timed). Run:
+``python benchmarks/bench_sot.py``.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
@@ -87,13 +95,49 @@ def time_mink(robot, ticks: int) -> tuple[list[float], float]:
     return samples, float(np.linalg.norm(hand_pos - target))
 
 
+def time_placo(robot, ticks: int) -> tuple[list[float], float]:
+    import placo
+
+    from robot_ctrl.robot.description import resolve_package_uris
+
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / f"{robot.name}.urdf"
+        path.write_text(resolve_package_uris(robot.files.urdf.read_text()))
+        wrapper = placo.RobotWrapper(str(path), placo.Flags.ignore_collisions)
+    wrapper.state.q = robot.q_half_sitting.copy()
+    wrapper.update_kinematics()
+    solver = placo.KinematicsSolver(wrapper)
+    solver.dt = DT
+    solver.enable_velocity_limits(True)
+    frames = robot.config.frames
+    for side in ("left", "right"):
+        foot = frames[f"{side}_foot"]
+        solver.add_frame_task(foot, wrapper.get_T_world_frame(foot)).configure(foot, "hard", 1.0, 1.0)
+    solver.add_com_task(wrapper.com_world()).configure("com", "soft", 100.0)
+    waist = frames["waist"]
+    solver.add_orientation_task(waist, wrapper.get_T_world_frame(waist)[:3, :3]).configure("waist", "soft", 10.0)
+    ik = WholeBodyIK(robot, robot.q_half_sitting)
+    target = reach_target(ik)
+    solver.add_position_task(frames["right_hand"], target).configure("hand", "soft", 30.0)
+    posture = solver.add_joints_task()
+    posture.set_joints({n: float(a) for n, a in zip(robot.joint_names, robot.config.half_sitting)})
+    posture.configure("posture", "soft", 0.03)
+    samples = []
+    for _ in range(ticks):
+        t0 = time.perf_counter()
+        solver.solve(True)
+        wrapper.update_kinematics()
+        samples.append(time.perf_counter() - t0)
+    return samples, float(np.linalg.norm(wrapper.get_T_world_frame(frames["right_hand"])[:3, 3] - target))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--ticks", type=int, default=2000)
     parser.add_argument("--json", action="store_true", help="print one JSON object as the last line")
     args = parser.parse_args()
     results = {"ours_us_median": None, "ours_us_p99": None, "mink_us_median": None, "placo_us_median": None,
-               "ratio_mink": None, "ratio_placo": None}  # placo's KinematicsSolver: not compared yet
+               "ratio_mink": None, "ratio_placo": None}
     robot = load_robot("talos")
     time_robot_ctrl(robot, 100)  # warm-up
     ours, ours_err = time_robot_ctrl(robot, args.ticks)
@@ -101,18 +145,20 @@ def main() -> None:
     results.update(ours_us_median=round(med, 2), ours_us_p99=round(p99, 2))
     print(f"robot_ctrl HierarchicalQP, 3 levels, Talos (nv = {robot.pin.nv}): "
           f"median {med:.1f} us, p99 {p99:.1f} us  (hand error after {args.ticks} ticks {ours_err * 1e3:.1f} mm)")
-    try:
-        import mink  # noqa: F401
-    except ImportError as exc:
-        print(f"mink does not import ({exc}; pip install -e '.[bench]'): no comparison")
-        return finish(results, args.json)
-    time_mink(robot, 100)
-    theirs, theirs_err = time_mink(robot, args.ticks)
-    m_med, m_p99 = percentiles(theirs)
-    print(f"mink solve_ik, same tasks, one weighted level (quadprog): median {m_med:.1f} us, p99 {m_p99:.1f} us  "
-          f"(hand error {theirs_err * 1e3:.1f} mm)")
-    print(f"ratio mink / robot_ctrl (median): {m_med / med:.2f}")
-    results.update(mink_us_median=round(m_med, 2), ratio_mink=round(m_med / med, 3))
+    for peer, timer, how in (("mink", time_mink, "solve_ik, one weighted level (quadprog)"),
+                             ("placo", time_placo, "KinematicsSolver, feet hard, the rest soft")):
+        try:
+            __import__(peer)
+        except ImportError as exc:
+            print(f"{peer} does not import ({exc}; make bench, or pip install -e '.[bench]'): no comparison")
+            continue
+        timer(robot, 100)
+        theirs, theirs_err = timer(robot, args.ticks)
+        t_med, t_p99 = percentiles(theirs)
+        print(f"{peer} {how}, same tasks: median {t_med:.1f} us, p99 {t_p99:.1f} us  "
+              f"(hand error {theirs_err * 1e3:.1f} mm)")
+        print(f"ratio {peer} / robot_ctrl (median): {t_med / med:.2f}")
+        results.update({f"{peer}_us_median": round(t_med, 2), f"ratio_{peer}": round(t_med / med, 3)})
     finish(results, args.json)
 
 
