@@ -60,6 +60,8 @@ def test_trials_from_a_file_and_drawn_at_random(tmp_path):
     assert trials[1].trial().argv == ("drawer", "--distance", "1.7", "--slot", "front_right", "--speed", "fast",
                                       "--dynfilter", "full", "--sources", "3+2")
     assert dataclasses.replace(trials[1], method="ours-no-feedback").trial().argv[-1] == "--no-position-feedback"
+    # campaign --robot: each trial runs on the campaign's robot
+    assert dataclasses.replace(trials[1], robot="g1").trial().argv[:3] == ("drawer", "--robot", "g1")
     naive = dataclasses.replace(trials[1], method="naive", sources="5+4", dataset="/data/feasible.npz").trial()
     assert naive.argv[-6:] == ("--sources", "5+4", "--dataset", "/data/feasible.npz", "--method", "naive")
     assert naive.id == "001_naive_5+4_front_right_1.700m_fast"

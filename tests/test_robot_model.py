@@ -212,11 +212,16 @@ def test_g1_config_errors_are_named(path, value, message):
         load_robot(config)
 
 
-def test_g1_without_grippers_is_refused_the_drawer_task_in_one_line(capsys):
-    assert main(["drawer", "--robot", "g1", "--distance", "2"]) == 2
+@pytest.mark.parametrize("command", [["drawer", "--distance", "2"], ["campaign", "--n", "1"], ["synth-demos"],
+                                     ["synth", "--distance", "1.5"]])
+def test_g1_without_grippers_is_refused_the_walk_and_reach_task_in_one_line(command, capsys, tmp_path):
+    out = tmp_path / "out"
+    where = ["--out", str(out)] if command[0] == "campaign" else []
+    assert main([command[0], "--robot", "g1", *command[1:], *where]) == 2
     assert capsys.readouterr().err.strip().endswith(
-        "drawer: robot g1 names no joints.grippers, joints.shoulders, joints.wrists in its config: the walk-and-reach "
-        "task needs a gripper that closes round the drawer's handle")
+        f"{command[0]}: robot g1 names no joints.grippers, joints.shoulders, joints.wrists in its config: the "
+        "walk-and-reach task needs a gripper that closes round the drawer's handle")
+    assert not out.exists()
 
 
 def test_half_sitting_outside_urdf_limits_is_rejected():
