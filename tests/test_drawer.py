@@ -63,12 +63,16 @@ def test_drawer_task_end_to_end(tmp_path):
 
 def test_the_demo_drawer_task_succeeds(tmp_path):
     # `make demo`, the first command a newcomer runs: it succeeds, and its last action (the pull and
-    # the reach) does not move the pelvis (no foot re-stepped to correct a few millimetres).
+    # the reach) does not move the pelvis (no foot re-stepped to correct a few millimetres). The
+    # controller stays inside the servos' limits by itself: no servo is asked for more than its
+    # effort (the IK's servo bounds), and the safety layer never steps in.
     status = main(["drawer", "--robot", "talos", "--distance", "2.0", "--slot", "front_left", "--quiet",
                    "--out", str(tmp_path)])
     report = json.loads((tmp_path / "report.json").read_text())
     assert status == 0 and report["success"] is True
     assert abs(report["step_length_errors_m"][-1]) <= 0.005 and report["hand_to_object_m"] <= 0.02
+    assert report["safety"]["interventions"] == {}
+    assert max(report["safety"]["demanded_peak_torque_ratio"].values()) <= 1.0
 
 
 def test_the_drawer_task_succeeds_on_noisy_sensors_and_late_commands(tmp_path):
@@ -81,6 +85,7 @@ def test_the_drawer_task_succeeds_on_noisy_sensors_and_late_commands(tmp_path):
     assert status == 0 and report["success"] is True and report["grasp"] == "weld"
     assert report["hand_to_object_m"] <= 0.01 and report["disturbances"]["sensor_noise"] is not None
     assert report["disturbances"]["latency_ms"] == 10
+    assert report["safety"]["interventions"] == {}  # the IK's servo bounds judge the noisy, late state too
 
 
 def test_drawer_takes_a_real_force_to_open(talos):

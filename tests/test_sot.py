@@ -7,6 +7,8 @@ import pinocchio as pin
 import pytest
 
 from robot_ctrl.sot import ComTask, FrameTask, HierarchicalQP, InfeasibleError, JointLimits, PostureTask, WholeBodyIK
+from robot_ctrl.sot.servo_bounds import servo_velocity_bounds
+from robot_ctrl.sot.whole_body_ik import upper_body_dofs
 
 DT = 0.005
 
@@ -230,3 +232,81 @@ def test_the_ik_changes_an_upper_body_joints_velocity_no_faster_than_its_servo_c
     assert upper.sum() == 20 and not upper[:12].any()  # torso, arms, grippers, head; not the legs
     assert (jumps[True][upper] <= 1.15 * limits.a_max[upper]).all()
     assert (jumps[False][upper] > 2 * limits.a_max[upper]).any()
+
+
+def test_servo_velocity_bounds_hold_the_servos_torque_to_its_budget():
+    """τ(v) = kp (q_ref + v dt − q) + kd (v − dq) + τ_ff is affine in v: the bounds are where it
+    meets ∓budget; a joint whose reference ran far from it gets an interval that excludes 0."""
+    rng = np.random.default_rng(3)
+    n = 50
+    q_ref, q, dq = rng.uniform(-1, 1, n), rng.uniform(-1, 1, n), rng.uniform(-2, 2, n)
+    kp, kd = rng.uniform(10, 2000, n), rng.uniform(0.5, 100, n)
+    tau_ff, budget = rng.uniform(-5, 5, n), rng.uniform(6, 50, n)
+    lo, hi = servo_velocity_bounds(q_ref, q, dq, tau_ff, kp, kd, budget, DT)
+
+    def torque(v):
+        return kp * (q_ref + v * DT - q) + kd * (v - dq) + tau_ff
+
+    np.testing.assert_allclose(torque(lo), -budget, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(torque(hi), budget, rtol=0, atol=1e-9)
+    assert (np.abs(torque(lo + (hi - lo) * rng.uniform(0, 1, n))) <= budget + 1e-9).all()
+    assert ((lo > 0) | (hi < 0)).any()  # some references lag too far to hold still
+    free = servo_velocity_bounds(q_ref, q, dq, tau_ff, 0 * kp, 0 * kd, budget, DT)
+    assert np.isneginf(free[0]).all() and np.isposinf(free[1]).all()
+
+
+def test_a_servo_bounded_ik_asks_its_arm_servos_for_no_more_than_their_effort(talos):
+    """A hand target 0.3 m away at once, the arm's servos played by each joint's own inertia M_ii
+    under the PD law, their torque saturated at the effort (a diagonal stand-in for the arm's
+    dynamics, enough for the IK's side of the bargain). Without the bounds the first steps ask the
+    shoulder and elbow servos for several times their effort (``kd Δv``); with them every
+    upper-body servo's demanded torque stays within the budget at every step, the feet hold
+    exactly and the hand still arrives."""
+    robot = talos
+    upper = np.isin(robot.v_index, upper_body_dofs(robot))
+    budget = np.where(upper, 0.95 * robot.effort, np.inf)
+    worst = {}
+    for bounded in (False, True):
+        ik = WholeBodyIK(robot, robot.q_half_sitting)
+        feet0 = {s: ik.pose(f"{s}_foot") for s in ("left", "right")}
+        target = ik.pose("right_hand").translation + [0.3, 0.0, 0.2]
+        ik.hands["right"].active = True
+        ik.hands["right"].set_target(pin.SE3(np.eye(3), target))
+        q, dq = robot.joints_from_q(ik.q), np.zeros(robot.nj)
+        ratio = np.zeros(robot.nj)
+        for _ in range(600):
+            q_ref = robot.joints_from_q(ik.q)
+            ik.prepare(DT)
+            within = servo_velocity_bounds(q_ref, q, dq, 0.0, robot.kp, robot.kd, budget, DT) if bounded else None
+            v = ik.finish(tighter=within)[robot.v_index]
+            tau = robot.kp * (robot.joints_from_q(ik.q) - q) + robot.kd * (v - dq)
+            ratio = np.maximum(ratio, np.abs(tau) / robot.effort)
+            dq = dq + np.clip(tau, -robot.effort, robot.effort) / robot.joint_inertia * DT
+            q = q + dq * DT
+        worst[bounded] = ratio
+        assert np.linalg.norm(ik.pose("right_hand").translation - target) < 0.005
+        for s in ("left", "right"):
+            assert np.linalg.norm(pin.log6(feet0[s].actInv(ik.pose(f"{s}_foot"))).vector) < 1e-6
+    assert worst[True][upper].max() <= 0.95 + 1e-9
+    assert worst[False][upper].max() > 2.0
+
+
+def test_a_braking_bound_slows_a_joint_before_its_soft_limit_without_bounding_its_acceleration(talos):
+    """``braking_fraction`` alone: the approach to a soft limit is capped at b(d) (the velocity
+    from which steps decelerating by a_brake stop within d), the acceleration is not."""
+    robot = dataclasses.replace(talos, config=dataclasses.replace(talos.config, acceleration_fraction=None,
+                                                                  braking_fraction=0.5))
+    limits = JointLimits.from_robot(robot, upper_body_dofs(robot))
+    assert limits.a_max is None and np.isfinite(limits.a_brake).sum() == 20
+    j = robot.joint_names.index("arm_left_2_joint")
+    q = robot.q_half_sitting.copy()
+    a = limits.a_brake[j]
+    for d in (0.001, 0.01, 0.05):
+        q[robot.q_index[j]] = limits.q_max[j] - d
+        lo, hi = limits.bounds(q, DT, previous=np.zeros(robot.nj))
+        b = a * (np.sqrt(DT**2 / 4 + 2 * d / a) - DT / 2)
+        assert hi[j] == pytest.approx(b, rel=1e-12) and b < d / DT
+        assert (b - DT * a) ** 2 / (2 * a) <= d  # from b, braking at a after one step stops in time
+    free = JointLimits.from_robot(dataclasses.replace(robot, config=dataclasses.replace(robot.config,
+                                                                                        braking_fraction=None)))
+    assert free.bounds(q, DT)[1][j] == min(0.05 / DT, free.v_max[j]) > hi[j]

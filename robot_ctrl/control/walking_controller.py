@@ -35,7 +35,8 @@ from robot_ctrl.geometry import SIDES, PlanarMove, mean_yaw, other, wrap_angle, 
 from robot_ctrl.hw.types import JointCommand, JointState
 from robot_ctrl.modes import FilterMode
 from robot_ctrl.robot.model import RobotModel, configuration
-from robot_ctrl.sot.whole_body_ik import WholeBodyIK
+from robot_ctrl.sot.servo_bounds import servo_velocity_bounds
+from robot_ctrl.sot.whole_body_ik import WholeBodyIK, upper_body_dofs
 from robot_ctrl.wpg.footstep import Footstep
 from robot_ctrl.wpg.generator import WalkingPatternGenerator
 from robot_ctrl.wpg.params import WalkParams
@@ -139,6 +140,11 @@ class WalkingController:
         q0 = configuration(robot, state.base_pos, state.base_quat_xyzw, state.q)
         self.ik = WholeBodyIK(robot, q0, trunk_weight=options.trunk_weight,
                               balance_with_arms=options.balance_with_arms)
+        # The upper body's commands stay within their servos' effort by the IK's bounds
+        # (servo_velocity_bounds); the legs keep none: the feet must hold exactly.
+        share = robot.config.servo_torque_fraction
+        self._servo_budget = None if share is None else np.where(
+            np.isin(robot.v_index, upper_body_dofs(robot)), share * robot.effort, np.inf)
         feet = {s: self.ik.pose(f"{s}_foot") for s in SIDES}
         self.sole_height = float(np.mean([feet[s].translation[2] for s in SIDES]))
         com = self.ik.com_position()
@@ -400,12 +406,16 @@ class WalkingController:
                                                 ref.zmp + self._balance_shift, self.dt)
         ik = self.ik
         ik.com.set_target(np.array([*(prepared.com + correction), self.com_z]), ik.com.target_velocity)
-        v = self._v = ik.finish(retargeted=(ik.com,))
         r = self.robot
         # A servo delivers no more than its effort: a feedforward beyond it (a stance ankle holding the
         # ZMP at the toe of a small robot's sole) is sent as much as it can give.
-        return JointCommand(q=r.joints_from_q(ik.q), dq=v[r.v_index], kp=r.kp, kd=r.kd,
-                            tau_ff=np.clip(prepared.tau_ff[r.v_index], -r.effort, r.effort))
+        tau_ff = np.clip(prepared.tau_ff[r.v_index], -r.effort, r.effort)
+        within = None
+        if self._servo_budget is not None:
+            within = servo_velocity_bounds(r.joints_from_q(ik.q), state.q, state.dq, tau_ff, r.kp, r.kd,
+                                           self._servo_budget, self.dt)
+        v = self._v = ik.finish(retargeted=(ik.com,), tighter=within)
+        return JointCommand(q=r.joints_from_q(ik.q), dq=v[r.v_index], kp=r.kp, kd=r.kd, tau_ff=tau_ff)
 
     def close(self) -> None:
         """Release what the controller holds outside this process (the filter worker)."""

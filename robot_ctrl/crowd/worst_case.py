@@ -65,7 +65,10 @@ def rank_two_box_sup(base: np.ndarray, a: np.ndarray, b: np.ndarray, radius: np.
         top = vectors[:, -1]
         return values[-1], weight * (t * (a @ top) ** 2 - (b @ top) ** 2 / t)
     start = np.log(np.maximum(np.linalg.norm(b, axis=1), 1e-12) / np.maximum(np.linalg.norm(a, axis=1), 1e-12))
-    found = optimize.minimize(bound, start, jac=True, method="L-BFGS-B", options={"maxiter": 300})
+    # Any t gives a bound; t within e^±20 of the start keeps the matrix finite (an unbounded line
+    # search overflowed exp to inf and eigh failed to converge).
+    found = optimize.minimize(bound, start, jac=True, method="L-BFGS-B", bounds=[(x - 20.0, x + 20.0) for x in start],
+                              options={"maxiter": 300})
     return float(min(bound(found.x)[0], bound(start)[0]))
 
 

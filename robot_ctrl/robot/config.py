@@ -98,7 +98,9 @@ class RobotConfig:
     position_margin: float  # [rad]
     velocity_fraction: float
     acceleration_fraction: float | None  # of the effort limit the IK may spend accelerating a joint; None: unbounded
+    braking_fraction: float | None  # of the effort limit the IK brakes a joint with before a soft limit; None: as above
     max_gain_ratio: float  # the largest kp and kd a command may carry, over the default gains
+    servo_torque_fraction: float | None  # of the effort limit an upper-body command may demand; None: unbounded
     timestep: float  # [s] physics step of the simulation backend
     walking: Mapping[str, Any]  # WalkParams fields this robot's size calls for (robot_ctrl.wpg.params)
     gait_swing: tuple[GaitSwing, ...]  # the walking demonstrations' upper-body motion
@@ -234,7 +236,11 @@ def parse_robot_config(raw: Mapping[str, Any], source: str = "robot config") -> 
         velocity_fraction=_number(limits, "velocity_fraction", f"{source}: limits", 0.01, 1.0),
         acceleration_fraction=(None if limits.get("acceleration_fraction") is None
                                else _number(limits, "acceleration_fraction", f"{source}: limits", 0.01, 1.0)),
+        braking_fraction=(None if limits.get("braking_fraction") is None
+                          else _number(limits, "braking_fraction", f"{source}: limits", 0.01, 1.0)),
         max_gain_ratio=_number(limits, "max_gain_ratio", f"{source}: limits", 1.0, 10.0),
+        servo_torque_fraction=(None if limits.get("servo_torque_fraction") is None
+                               else _number(limits, "servo_torque_fraction", f"{source}: limits", 0.1, 1.0)),
         timestep=_number(sim, "timestep", f"{source}: simulation", 1e-4, 0.01),
         walking=walking,
         walking_speed=speed,

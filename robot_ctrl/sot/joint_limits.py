@@ -21,8 +21,8 @@ class JointLimits:
         lo_p = max(-v_max, min(0, max((q_min - q) / dt, -b(q - q_min))))
         hi_p = min(v_max, max(0, min((q_max - q) / dt, b(q_max - q))))
 
-    with ``b(d) = a_max (√(dt²/4 + 2 d / a_max) − dt/2)`` the fastest velocity from which steps of
-    ``dt`` decelerating by ``a_max`` stop within ``d`` (``v²/2a + v dt/2 = d``, the discrete form of
+    with ``b(d) = a_brake (√(dt²/4 + 2 d / a_brake) − dt/2)`` the fastest velocity from which steps
+    of ``dt`` decelerating by ``a_brake`` stop within ``d`` (``v²/2a + v dt/2 = d``, the discrete form of
     ``√(2 a d)``); and, given the IK's previous velocity ``v⁻``, from the acceleration limit, inside
     those::
 
@@ -30,6 +30,12 @@ class JointLimits:
 
     (the joint-space bounds of Flacco, De Luca and Khatib, IEEE T-RO 31(3), 2015, §III, on the
     velocity; where the acceleration limit and the position limit disagree, the position wins).
+
+    The braking distance uses ``a_brake`` (None: none; ∞ on a joint: none on it), which may be set
+    without ``a_max``: a joint then accelerates as its tasks ask (within what its servo can give, a
+    controller's :func:`~robot_ctrl.sot.servo_bounds.servo_velocity_bounds`) but reaches a soft
+    limit slowly enough for its servo to stop it there; stopped at the limit by the position bound
+    alone, a joint arriving at speed asks its servo for ``kd × speed``.
 
     ``[q_min, q_max]`` are the URDF limits shrunk by the config's margin (soft limits): the IK
     never moves a joint into the margin, and a joint already inside it may stay or move out of
@@ -50,20 +56,27 @@ class JointLimits:
     q_max: np.ndarray
     v_max: np.ndarray
     a_max: np.ndarray | None = None
+    a_brake: np.ndarray | None = None
 
     @classmethod
     def from_robot(cls, robot: RobotModel, accelerated: np.ndarray | None = None) -> "JointLimits":
         """``accelerated``: velocity indices of the joints whose acceleration is bounded too (a
-        controller's IK, whose velocity the servos follow); None: none (a kinematic planner), as
-        when the robot config sets no ``limits.acceleration_fraction``."""
+        controller's IK, whose velocity the servos follow); None: none (a kinematic planner). Their
+        ``a_max`` comes from the config's ``limits.acceleration_fraction``, their braking
+        deceleration ``a_brake`` before a soft limit from the smaller of ``limits.braking_fraction``
+        and that; both unset: no such bound."""
         c = robot.config
-        a_max = None
-        if accelerated is not None and c.acceleration_fraction is not None:
-            a_max = np.where(np.isin(robot.v_index, accelerated),
-                             c.acceleration_fraction * robot.effort / robot.joint_inertia, np.inf)
+        def share_of_effort(share: float | None) -> np.ndarray | None:
+            if accelerated is None or share is None:
+                return None
+            return np.where(np.isin(robot.v_index, accelerated), share * robot.effort / robot.joint_inertia, np.inf)
+
+        a_max = share_of_effort(c.acceleration_fraction)
+        shares = [f for f in (c.braking_fraction, c.acceleration_fraction) if f is not None]
+        a_brake = share_of_effort(min(shares) if shares else None)  # never braking harder than accelerating
         return cls(robot.q_index, robot.v_index, robot.joint_names, robot.lower, robot.upper,
                    robot.lower + c.position_margin, robot.upper - c.position_margin,
-                   robot.velocity_limit * c.velocity_fraction, a_max)
+                   robot.velocity_limit * c.velocity_fraction, a_max, a_brake)
 
     def bounds(self, q: np.ndarray, dt: float, previous: np.ndarray | None = None,
                tol: float = 1e-6) -> tuple[np.ndarray, np.ndarray]:
@@ -76,9 +89,9 @@ class JointLimits:
                                for i in outside)
             raise LimitViolation(f"configuration outside the joint limits: {detail}")
         to_min, to_max = (self.q_min - qj) / dt, (self.q_max - qj) / dt
-        if self.a_max is not None:
-            bounded = np.isfinite(self.a_max)
-            a = np.where(bounded, self.a_max, 1.0)
+        if self.a_brake is not None:
+            bounded = np.isfinite(self.a_brake)
+            a = np.where(bounded, self.a_brake, 1.0)
             to_min = np.where(bounded, np.maximum(to_min, -_braking(a, -to_min * dt, dt)), to_min)
             to_max = np.where(bounded, np.minimum(to_max, _braking(a, to_max * dt, dt)), to_max)
         lo = np.maximum(-self.v_max, np.minimum(0.0, to_min))

@@ -154,9 +154,12 @@ class HierarchicalQP:
         fast = self._fast_path(stacked, spans, retargetable)
         self._prepared = _Prepared(model, data, q, lo, hi, levels, stacked, spans, fast)
 
-    def finish(self, retargeted: tuple[Task, ...] = ()) -> np.ndarray:
+    def finish(self, retargeted: tuple[Task, ...] = (),
+               tighter: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
         """Second half of :meth:`solve`, after ``retargeted`` tasks (active ones of the prepared
-        stack) got new targets: their rows are read again, at the prepared configuration."""
+        stack) got new targets: their rows are read again, at the prepared configuration.
+        ``tighter``: bounds ``(lo, hi)`` on the limits' dofs known only now (from a measured state),
+        intersected with the prepared ones; where they disagree, the prepared (position) bounds win."""
         p, self._prepared = self._prepared, None
         if p is None:
             raise RuntimeError("HierarchicalQP.finish without prepare")
@@ -181,6 +184,8 @@ class HierarchicalQP:
             stacked[k] = (stacked[k][0], b)
             self.last[k].b = b
         lo, hi, bounded = p.lo, p.hi, self.limits.v_index
+        if tighter is not None:
+            lo, hi = np.clip(np.maximum(lo, tighter[0]), lo, hi), np.clip(np.minimum(hi, tighter[1]), lo, hi)
         if fast is not None:
             if v is None:
                 f = np.concatenate([b for _, b in stacked[:-1]])

@@ -137,16 +137,18 @@ class WholeBodyIK:
         self.solver.prepare(self.robot.pin, self.data, self.q, dt, retargetable, self.v)
         self._prepared = (self.q, dt, retargetable)
 
-    def finish(self, retargeted: tuple = ()) -> np.ndarray:
+    def finish(self, retargeted: tuple = (), tighter: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
         """Second half of :meth:`step`, after the ``retargeted`` tasks got new targets. Prepares
-        again first if ``q`` was set since :meth:`prepare`."""
+        again first if ``q`` was set since :meth:`prepare`. ``tighter``: per-joint velocity bounds
+        from the measured state (:func:`~robot_ctrl.sot.servo_bounds.servo_velocity_bounds`), in
+        the robot's joint order, inside the joint limits'."""
         if self._prepared is None:
             raise RuntimeError("WholeBodyIK.finish without prepare")
         q, dt, retargetable = self._prepared
         if q is not self.q:
             self.prepare(dt, retargetable)
         self._prepared = None
-        v = self.v = self.solver.finish(retargeted)
+        v = self.v = self.solver.finish(retargeted, tighter)
         self.q = pin.integrate(self.robot.pin, self.q, v * dt)
         self._stale = True  # frame placements are recomputed only when a pose is asked for
         return v

@@ -1,0 +1,30 @@
+"""The IK velocities whose servo command stays within the servo's effort limit at the measured state."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def servo_velocity_bounds(q_ref: np.ndarray, q: np.ndarray, dq: np.ndarray, tau_ff: np.ndarray, kp: np.ndarray,
+                          kd: np.ndarray, budget: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds ``lo ≤ v ≤ hi`` on a joint's IK velocity ``v`` for one step of ``dt`` from the
+    reference ``q_ref``, such that the servo command it becomes (target ``q_ref + v dt``, velocity
+    ``v``, feedforward ``τ_ff``) asks the servo for no more than ``budget`` at the measured ``q``,
+    ``dq``. The PD servo's torque is affine in ``v``::
+
+        τ(v) = kp (q_ref + v dt − q) + kd (v − dq) + τ_ff = (kp dt + kd) v + c,
+        c = kp (q_ref − q) − kd dq + τ_ff,
+
+    so ``|τ(v)| ≤ budget`` is ``(−budget − c) / (kp dt + kd) ≤ v ≤ (budget − c) / (kp dt + kd)``.
+    The interval is never empty; it excludes 0 when the reference has run so far from the joint
+    that holding it still would ask for more than the budget, and then moves the reference back
+    toward the joint. The IK integrates its own reference, so this is what keeps that reference
+    within what the servo can follow: a velocity step ``Δv`` costs ``kd Δv`` of torque at once (a
+    task switching on, a joint leaving its soft limit), a lagging joint ``kp × lag``. Arrays are per
+    joint; a joint with ``kp dt + kd = 0`` gets no bound (±∞)."""
+    slope = kp * dt + kd
+    c = kp * (q_ref - q) - kd * dq + tau_ff
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lo = np.where(slope > 0, (-budget - c) / slope, -np.inf)
+        hi = np.where(slope > 0, (budget - c) / slope, np.inf)
+    return lo, hi
