@@ -65,6 +65,7 @@ def test_the_loop_steps_writes_prepares_and_reads_in_order(talos):
         assert read[:2] == ("state", k) and read[3] == pytest.approx(0.005 * (k + 1))
 
 
+@pytest.mark.realtime
 @pytest.mark.parametrize("hw", ["mit-can-emulated", "dynamixel-emulated"])
 def test_a_walk_over_an_emulated_servo_bus(hw, tmp_path):
     assert main(["walk", "--distance", "1", "--hw", hw, "--quiet", "--out", str(tmp_path)]) == 0

@@ -26,6 +26,8 @@ from robot_ctrl.hw.types import JointCommand, LifecycleState
 from robot_ctrl.robot import load_robot
 from robot_ctrl.robot.config import ConfigError
 
+pytestmark = pytest.mark.realtime  # wall-clock timing: run apart from the parallel tests
+
 DT = 0.005
 
 

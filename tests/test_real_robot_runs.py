@@ -27,6 +27,8 @@ from robot_ctrl.modes import BaseState
 from robot_ctrl.scenarios.bringup import HOLD_S
 from robot_ctrl.scenarios.walk import WalkSettings, run_walk
 
+pytestmark = pytest.mark.realtime  # wall-clock timing: run apart from the parallel tests
+
 SLOWER = 6.0  # wall seconds per second of the run's clock
 
 

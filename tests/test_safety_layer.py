@@ -207,6 +207,7 @@ def test_a_bad_measurement_sends_damping_and_latches(talos, limits):
         hw.read()
 
 
+@pytest.mark.realtime
 def test_estop_does_not_wait_for_a_write_in_flight(talos, limits):
     hw, backend = layer(talos, limits, clock=time.monotonic)
     q = backend.measured.q
@@ -226,6 +227,7 @@ def test_estop_does_not_wait_for_a_write_in_flight(talos, limits):
         hw.write(hold(talos, q))
 
 
+@pytest.mark.realtime
 def test_watchdog_thread_trips_within_its_period_even_during_a_stuck_write(talos, limits):
     hw, backend = layer(talos, limits, clock=time.monotonic)
     q = backend.measured.q
