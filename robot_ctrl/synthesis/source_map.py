@@ -43,12 +43,16 @@ class SourceMap:
     def delayed(self, x: np.ndarray, rotations: np.ndarray) -> np.ndarray:
         """``s_k(t − τ_nk)`` for every channel n and source k: rotate the oscillator states ``x``
         (K, 2), one per source, by ``rotations`` (N, K) [rad] and evaluate source k: (N, K)."""
-        # The centers lie on the unit circle at angles a_j: ‖R(φ)x − c_j‖² = r² + 1 − 2r cos(θ + φ − a_j).
-        r = np.hypot(x[:, 0], x[:, 1])[None, :, None]
-        theta = np.arctan2(x[:, 1], x[:, 0])
-        angles = np.arctan2(self.centers[:, 1], self.centers[:, 0])
-        d2 = r * r + 1 - 2 * r * np.cos((theta + rotations)[..., None] - angles)  # (N, K, M)
-        return np.einsum("nkm,km->nk", np.exp(-d2 / (2 * self.sigma**2)), self.coefficients)
+        # The centers c_j lie on the unit circle: with ψ = θ + φ the rotated state's angle,
+        # −‖R(φ)x − c_j‖² / 2σ² = (r / σ²) (cos ψ, sin ψ)·c_j − (r² + 1) / 2σ², one trigonometric pair per
+        # (channel, source) rather than a cosine per center.
+        r = np.hypot(x[:, 0], x[:, 1])
+        psi = np.arctan2(x[:, 1], x[:, 0]) + rotations  # (N, K)
+        scale = r / self.sigma**2
+        exponent = np.multiply.outer(np.cos(psi) * scale, self.centers[:, 0])  # (N, K, M)
+        exponent += np.multiply.outer(np.sin(psi) * scale, self.centers[:, 1])
+        exponent -= ((r * r + 1) / (2 * self.sigma**2))[:, None]
+        return np.einsum("nkm,km->nk", np.exp(exponent), self.coefficients)
 
 
 def delay_rotations(delays: np.ndarray, T: int) -> np.ndarray:

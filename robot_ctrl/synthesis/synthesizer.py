@@ -25,6 +25,7 @@ the advance is affine in those means: the oscillators do not depend on them.
 
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -106,6 +107,36 @@ class _Blend:
 
 
 @dataclass
+class _Rollout:
+    """The synthesis ahead for one plan, rolled out at steps of ``dt`` [s] from a cursor within
+    action ``action_index``, outside its blends; :meth:`Synthesizer.preview` drops the samples that
+    time has passed and extends the tail, so each call rolls only what is new."""
+
+    dt: float
+    plan_version: int
+    action_index: int
+    cursor: _Cursor  # at the tail
+    last: SynthesisOutput | None  # the references at the tail
+    end: float  # synthesis time of the tail [s]
+    samples: deque  # (synthesis time [s], pelvis velocity, upper-body angles, action), oldest first
+
+    def extend(self, primitives: WalkReachPrimitives, plan: list[ActionParams]) -> None:
+        """One more sample at the tail; after the sequence ends the last references are held."""
+        c = self.cursor
+        if not c.finished:
+            values = np.clip(_advance(primitives, plan, c, self.dt), primitives.lower, primitives.upper)
+            if not c.finished:
+                self.last = SynthesisOutput(values[:3], values[3:], 0.0, plan[c.index].action)
+        self.end += self.dt
+        if self.last is None:
+            self.samples.append((self.end, np.zeros(3), np.zeros(len(primitives.channels) - 3), 0))
+        elif c.finished:
+            self.samples.append((self.end, np.zeros(3), self.last.upper_body_q, Action.ENDED))
+        else:
+            self.samples.append((self.end, self.last.pelvis_velocity, self.last.upper_body_q, self.last.action))
+
+
+@dataclass
 class ExecutedAction:
     action: Action
     planned_length: float
@@ -131,6 +162,9 @@ class Synthesizer:
         self._goal = None
         self._last = None
         self._dt = control_dt
+        self._elapsed = 0.0  # synthesis time stepped so far [s]
+        self._plan_version = 0
+        self._rollout: _Rollout | None = None
         self._set_goal(goal)
 
     # -- public -------------------------------------------------------------------------------------
@@ -148,6 +182,7 @@ class Synthesizer:
         if not (np.isfinite(dt) and 0 < dt <= 0.1):
             raise ValueError(f"dt = {dt} s must be in (0, 0.1]")
         self._dt = dt
+        self._elapsed += dt
         if goal is not None and goal != self._goal and not self.finished:
             self._set_goal(goal)
         c = self._cursor
@@ -172,21 +207,27 @@ class Synthesizer:
     def preview(self, horizon: float, dt: float) -> SynthesisPreview:
         """The references of the next ``horizon`` [s] at steps of ``dt`` [s], from a rollout of this
         same synthesis (the goal as it stands); the synthesizer itself does not move. After the
-        sequence ends the last references are held."""
-        c = self._cursor.copy()
+        sequence ends the last references are held.
+
+        The rollout is kept between calls: a call rolls only the tail that time has added since the
+        last one. It starts anew when the plan changes (a replan), when an action ends, and at every
+        call while the synthesis is within a transition's blend (and is not kept from there): in a
+        blend the frequency changes within a step, so a rollout at steps of ``dt`` departs from the
+        synthesis's own finer steps, and that departure must not be carried on into the next
+        action. The samples lie on the rollout's grid: the first is less than ``dt`` ahead."""
         n = max(1, int(round(horizon / dt)))
-        velocity, upper, action = np.zeros((n, 3)), np.zeros((n, len(self.primitives.channels) - 3)), np.zeros(n, int)
-        last = self._last
-        for k in range(n):
-            if not c.finished:
-                values = np.clip(_advance(self.primitives, self.plan, c, dt), self.primitives.lower, self.primitives.upper)
-                if not c.finished:
-                    last = SynthesisOutput(values[:3], values[self._upper], 0.0, self.plan[c.index].action)
-            if last is None:
-                continue
-            velocity[k], upper[k] = (last.pelvis_velocity, last.upper_body_q) if not c.finished else (0.0, last.upper_body_q)
-            action[k] = Action.ENDED if c.finished else last.action
-        return SynthesisPreview(dt * np.arange(1, n + 1), velocity, upper, action)
+        c, r = self._cursor, self._rollout
+        blending = not c.finished and _blend(self.plan, c.index, float(phase(c.x[0]))).window
+        if r is None or blending or r.dt != dt or r.plan_version != self._plan_version or r.action_index != c.index:
+            r = _Rollout(dt, self._plan_version, c.index, c.copy(), self._last, self._elapsed, deque())
+        self._rollout = None if blending else r
+        while r.samples and r.samples[0][0] <= self._elapsed + 1e-9:
+            r.samples.popleft()
+        while len(r.samples) < n:
+            r.extend(self.primitives, self.plan)
+        ahead = [r.samples[k] for k in range(n)]
+        return SynthesisPreview(np.array([a[0] for a in ahead]) - self._elapsed, np.array([a[1] for a in ahead]),
+                                np.array([a[2] for a in ahead]), np.array([a[3] for a in ahead], dtype=int))
 
     @property
     def action_index(self) -> int:
@@ -214,6 +255,7 @@ class Synthesizer:
         self.targets = self.targets[:keep] + list(kept_end + np.cumsum(steps.lengths))
         self._correct_speed_means(keep)
         self._goal = goal
+        self._plan_version += 1
         if not self.history:
             self.history.append(ExecutedAction(self.plan[0].action, self.plan[0].length, 0.0))
 
