@@ -34,8 +34,7 @@ class WalkLog:
         ``foot_size``: sole (length, width) [m], for drawing footprints."""
         if not (np.isfinite(grf_limit_ratio) and grf_limit_ratio > 0):
             raise ValueError(f"grf_limit_ratio = {grf_limit_ratio} must be > 0")
-        self.weight = weight  # [N]
-        self.grf_limit = grf_limit_ratio * weight
+        self.grf_limit = grf_limit_ratio * weight  # [N]
         self.start_pose = np.asarray(start_pose, dtype=float)
         self.foot_size = foot_size
         self.rows: list[tuple] = []
