@@ -163,6 +163,48 @@ def test_the_drawer_report_judges_the_logged_run():
     assert short["step_length_errors_m"] == [0.0, -0.02, 0.0] and not short["success"]
 
 
+def test_every_drawer_report_field_from_a_logged_run():
+    """Each figure of the drawer report from logged arrays of a known answer, with its rounding:
+    the grasp from the first tick the weld holds (a reading of 0.5 is not a grasp), the hand at the
+    handle then, not its closest; the last tick's opening, distance and hand; the ankles' peaks
+    each over their own limit; success at the opening's and the object's thresholds exactly."""
+    from robot_ctrl.eval.drawer_recorder import drawer_outcome
+
+    log = drawer_log(opening=0.1812345)
+    n = len(log["t"])
+    log["t"] = log["t"] + 0.0001234  # a clock that did not start on a 5 ms tick
+    log["base"][1000, 0] -= 1e-9  # the second action ends a hair short: −0.0 must not reach the report
+    log["base"][-1, 0] -= 0.0012345  # and the standing pelvis drifts back by the end
+    log["drawer_opening_m"][-2] = 0.3
+    log["ankle_pitch_torque"][:, 0] = 40.12345
+    log["ankle_pitch_torque"][700, 1] = -80.5
+    log["drawer_pull_force_n"][[5, 900]] = [np.nan, 31.23456]
+    log["grasped"] = np.where(log["t"] > 6.0123, 1.0, np.where(log["t"] > 5.5, 0.5, 0.0))
+    log["left_hand_to_handle_m"] = np.abs(np.linspace(-0.005, 0.011, n)) + 0.001  # closest at 3.1 s
+    log["right_hand_to_object_m"][-2:] = [0.5, 0.0123456]
+    log["cabinet_distance_m"][-2:] = [9.0, log["base"][-1, 0] + 0.6473456]
+    report = drawer_outcome(log, [1.0, 3.0, 5.0, 10.5], [0.4, 0.2, 0.0], lambda xy: float(np.hypot(*xy)),
+                            fell=False, required_opening=0.14, comfort=0.64731, ankle_limit=np.array([160.0, 100.0]))
+    grasp = int(np.argmax(log["t"] > 6.0123))
+    assert report == {
+        "success": True, "planned_step_lengths_m": [0.4, 0.2, 0.0], "realized_step_lengths_m": [0.4, 0.2, -0.00123],
+        "step_length_errors_m": [0.0, 0.0, -0.00123], "step_length_error_max_m": 0.00123, "comfort_distance_m": 0.6473,
+        "final_pelvis_to_drawer_m": 0.6473, "drawer_opening_m": 0.1812, "drawer_opening_required_m": 0.14,
+        "drawer_pull_force_peak_n": 31.23, "grasp": "weld", "grasp_time_s": 6.015,
+        "hand_to_handle_m": round(float(log["left_hand_to_handle_m"][grasp]), 4), "hand_to_object_m": 0.0123,
+        "peak_ankle_pitch_torque_ratio": {"left": 0.2508, "right": 0.805}}
+    assert str(report["step_length_errors_m"][1]) == "0.0" and report["hand_to_handle_m"] == 0.0056
+    assert log["t"][grasp] == pytest.approx(6.0151234)  # reported to the millisecond
+    log["drawer_opening_m"][-1], log["right_hand_to_object_m"][-1] = 0.14, 0.02  # both at their thresholds
+    assert outcome(log)["success"]
+    log["grasped"][:] = 0.5
+    ungrasped = outcome(log)
+    assert ungrasped["grasp"] == "none" and ungrasped["grasp_time_s"] is None and ungrasped["hand_to_handle_m"] == 0.001
+    no_actions = drawer_outcome(log, [1.0], [], lambda xy: float(xy[0]), fell=False, required_opening=0.14,
+                                comfort=0.647, ankle_limit=np.array([160.0, 160.0]))
+    assert no_actions["step_length_error_max_m"] is None and not no_actions["success"]
+
+
 def test_without_position_feedback_the_synthesis_alone_steers_the_walk(tmp_path):
     """The commander's loops off: the synthesizer's own advance still matches its plan (kinematics),
     the measured pelvis does not, by more than with the loops on (test_drawer_task_end_to_end)."""
