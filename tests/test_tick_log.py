@@ -84,3 +84,57 @@ def test_the_log_is_written_off_the_control_thread(talos, tmp_path):
     writer.close()
     hw.close()
     assert writers == ["tick-log"] * 5 and len(read_tick_log(tmp_path / "ticks.log").records) == 5
+
+
+def test_a_record_holds_what_its_tick_had_and_nan_where_it_had_nothing(talos, tmp_path):
+    """What a tick measured and commanded, field by field; NaN where the state has no such reading
+    (no wrench, temperature, base or demand) or the tick no command (the last state, written at
+    ``close``); the pacer's latest lateness; a header naming the robot and the record's layout."""
+    import dataclasses
+    import threading
+    from collections import deque
+    from types import SimpleNamespace
+
+    from robot_ctrl.eval.tick_log import TickLogWriter
+    from robot_ctrl.hw.mujoco_backend import MujocoBackend
+    from robot_ctrl.hw.safety import SafetyLayer, SafetyLimits
+    from robot_ctrl.hw.types import JointCommand
+
+    hw = SafetyLayer(MujocoBackend(talos), SafetyLimits.for_simulation(talos), clock=None)
+    hw.bring_up()
+    full = dataclasses.replace(hw.read(), tau_demand=np.full(talos.nj, 1.5), temperature=np.full(talos.nj, 41.0))
+    bare = dataclasses.replace(full, t=full.t + 0.005, tau_demand=None, temperature=None, foot_wrench=None,
+                               base_pos=None, base_quat_xyzw=None)
+    zero = np.zeros(talos.nj)
+    command = JointCommand(q=full.q + 0.01, dq=zero + 0.2, kp=talos.kp, kd=talos.kd, tau_ff=zero + 3.0)
+    pacer = SimpleNamespace(lateness=deque([0.001, 0.0015, 0.0025]))
+    path = tmp_path / "logs" / "a" / "ticks.log"
+    writer = TickLogWriter(path, talos, hw, 0.005, pacer)
+    writer.on_command(SimpleNamespace(k=0, states=[full], commands=[command]))
+    writer.on_command(SimpleNamespace(k=1, states=[bare], commands=[command]))
+    writer.on_state(SimpleNamespace(k=1, states=[bare]))
+    assert [t.daemon for t in threading.enumerate() if t.name == "tick-log"] == [True]  # never keeps a dead run
+    writer.close()
+    writer.close()  # a second close writes nothing more
+    hw.close()
+    log = read_tick_log(path)
+    r = log.records
+    assert writer.ticks == 3 and r["k"].tolist() == [0, 1, 2] and r["t"].tolist() == [full.t, bare.t, bare.t]
+    assert r["lateness"].tolist() == [0.0025] * 3 and r["floor_contacts"].tolist() == [0, 0, 0]
+    assert r["mode"].tolist() == [log.header["modes"].index("normal")] * 3
+    np.testing.assert_array_equal(r["q"][0], full.q)
+    np.testing.assert_array_equal(r["tau_demand"][0], full.tau_demand)
+    np.testing.assert_array_equal(r["foot_wrench"][0], [full.foot_wrench["left"], full.foot_wrench["right"]])
+    np.testing.assert_array_equal(r["base_pos"][0], full.base_pos)
+    np.testing.assert_array_equal(r["base_quat_xyzw"][0], full.base_quat_xyzw)
+    for name in ("q", "dq", "kp", "kd", "tau_ff"):
+        np.testing.assert_array_equal(r["cmd_" + name][1], getattr(command, name))
+        assert np.all(np.isnan(r["cmd_" + name][2])), name  # the last state: no command
+    for name in ("tau_demand", "temperature", "foot_wrench", "base_pos", "base_quat_xyzw"):
+        assert np.all(np.isnan(r[name][1])), name
+    np.testing.assert_array_equal(r["temperature"][0], full.temperature)
+    header = log.header
+    assert header["robot"] == "talos" and header["joint_names"] == list(talos.joint_names)
+    assert header["effort"] == [float(e) for e in talos.effort] and header["control_dt"] == 0.005
+    assert header["interventions"][0] == "estop" and header["modes"][0] == "off" and header["start_unix_s"] > 1.7e9
+    assert [field[0] for field in header["dtype"]][:3] == ["k", "t", "wall"]
