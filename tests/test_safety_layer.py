@@ -307,23 +307,23 @@ def test_each_limit_clamps_its_own_side_and_is_reported_by_name(talos, limits):
     sent = tick(hold(talos, q))
     assert counts() == {} and np.array_equal(sent.q, q) and np.array_equal(sent.kp, talos.kp)
 
-    def target(**offsets):
+    def target(positions: dict[int, float]) -> np.ndarray:
+        """The standing posture with the given joints' targets changed."""
         out = q.copy()
-        for joint, value in offsets.items():
-            out[int(joint[1:])] = value
+        out[list(positions)] = list(positions.values())
         return out
 
-    sent = tick(hold(talos, target(**{f"j{a}": limits.upper[a] + 0.5})))
+    sent = tick(hold(talos, target({a: limits.upper[a] + 0.5})))
     assert counts() == {"position_clamped": 1, "position_step_limited": 1}
     assert sent.q[a] == pytest.approx(q[a] + step[a]) and np.array_equal(np.delete(sent.q, a), np.delete(q, a))
-    sent = tick(hold(talos, target(**{f"j{b}": limits.lower[b] - 0.5})))
+    sent = tick(hold(talos, target({b: limits.lower[b] - 0.5})))
     assert counts() == {"position_clamped": 2, "position_step_limited": 2}
     # From the last target, not from the measured posture (which has not moved): joint a goes on
     # up by one step, joint b down by one.
     assert sent.q[a] == pytest.approx(q[a]) and sent.q[b] == pytest.approx(q[b] - step[b])
-    sent = tick(hold(talos, target(**{f"j{a}": q[a] + 3 * step[a], f"j{b}": q[b] - 3 * step[b]})))
+    sent = tick(hold(talos, target({a: q[a] + 3 * step[a], b: q[b] - 3 * step[b]})))
     assert sent.q[a] == pytest.approx(q[a] + step[a]) and sent.q[b] == pytest.approx(q[b] - 2 * step[b])
-    sent = tick(hold(talos, target(**{f"j{a}": q[a] + 3 * step[a], f"j{b}": q[b] - 3 * step[b]})))
+    sent = tick(hold(talos, target({a: q[a] + 3 * step[a], b: q[b] - 3 * step[b]})))
     assert sent.q[a] == pytest.approx(q[a] + 2 * step[a]) and sent.q[b] == pytest.approx(q[b] - 3 * step[b])
     assert counts() == {"position_clamped": 2, "position_step_limited": 4}  # b arrived in its last tick
     for _ in range(3):
@@ -390,7 +390,8 @@ def test_stale_measurements_rejected_commands_and_a_silent_controller_each_trip_
     for k in range(1, 6):  # the robot's measurements stop: the same sample read again
         hw.clock.t += DT
         hw.read()
-        sent = hw.write(hold(talos, q)) or backend.commands()[-1]
+        hw.write(hold(talos, q))
+        sent = backend.commands()[-1]
         stale = k > limits.stale_periods
         assert hw.interventions["stale_state"] == int(stale) and (sent.kp.max() == 0) == stale, k
     last = tick(hold(talos, q + 0.01))  # fresh again: the soft start resumes the servos
