@@ -75,19 +75,21 @@ def test_a_walk_on_real_servos_starts_with_the_start_sequence_and_walks_on_the_e
     assert report["base_state"] == "estimated" and report["base_ground_truth"] is False
     assert report["base_estimate_error"] is None and not report["fell"]
     # The controller keeps the pace: the median tick starts on time and overruns are rare. A shared
-    # host can still stall the process once (a CI machine did, 70 ms of wall time); the watchdog
+    # host can still stall the process (a CI machine did, 70 ms of wall time: 2-3 overruns); the watchdog
     # must then catch it, so each of its trips follows an overrun, never a tick that kept time.
     timing, trips = report["timing"], report["safety"]["interventions"].get("watchdog", 0)
     assert timing["ticks"] > 2000 and timing["lateness_ms"]["median"] < 0.5, timing
-    assert timing["overruns"] <= 3 and trips <= timing["overruns"], (timing, trips)
+    assert timing["overruns"] <= 6 and trips <= timing["overruns"], (timing, trips)
     # The start sequence came first, at reduced stiffness (StartParams.gain_scale 0.3), then the walk
-    # at the servo gains.
+    # at the servo gains, but for the walk's soft start, the closing damping and, after each watchdog
+    # trip, the damping and the soft start (SafetyLimits.soft_start) the next write resumes with.
     kp = np.array([c.kp for _, c in emulator.received])
     knee = talos.joint_names.index("leg_left_4_joint")
     start_ticks = round((StartParams().duration + HOLD_S) / dt)
     assert np.all(kp[:start_ticks, knee] <= 0.3 * talos.kp[knee] * 1.001)  # MIT frames quantize kp
     walking = np.isclose(kp[start_ticks:, knee], talos.kp[knee], rtol=1e-3)
-    assert walking.mean() > 0.95  # but the walk's soft start and the closing damping
+    resumed = trips * (round(hw.limits.soft_start / dt) + 1)
+    assert (~walking).sum() <= 0.05 * walking.size + resumed, (walking.mean(), trips)
     # Where the simulated robot went: 0.4 m forward of where it stood.
     moved = emulator.body_state().base_pos - start
     assert moved[0] == pytest.approx(0.4, abs=0.05) and abs(moved[1]) < 0.05
