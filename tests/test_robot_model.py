@@ -9,6 +9,7 @@ import pytest
 import yaml
 
 from robot_ctrl.cli import main
+from robot_ctrl.control.stabilizer import StabilizerGains
 from robot_ctrl.robot import ConfigError, load_robot, load_robot_config
 from robot_ctrl.robot.config import CONFIG_DIR, parse_robot_config
 from robot_ctrl.robot.description import read_srdf
@@ -197,6 +198,10 @@ def test_out_of_range_fields_are_named(path, value, message):
     (("foot", "box_height"), 0.5, r"field 'box_height' = 0.5 is outside the allowed range"),
     (("joints", "grippers"), {"left": "left_elbow_joint"},
      r"joints.grippers must have exactly the keys 'left' and 'right'"),
+    (("stabilizer",), {"dcm_gain": 3.0}, r"stabilizer.dcm_gain is not a stabilizer gain \(allowed: dcm_rate, lateral"),
+    (("stabilizer",), {"lateral_dcm_rate": 0.0}, r"stabilizer.lateral_dcm_rate = 0.0 must be a number in \(0, 100.0\]"),
+    (("stabilizer",), {"max_offset": 1.0}, r"stabilizer.max_offset = 1.0 must be a number in \(0, 0.2\]"),
+    (("stabilizer",), [6.0], r"stabilizer must map stabilizer gains to values"),
 ])
 def test_g1_config_errors_are_named(path, value, message):
     """What a config for a robot unlike Talos adds (sole frames, a sole box, its own walking
@@ -209,6 +214,7 @@ def test_g1_config_errors_are_named(path, value, message):
     with pytest.raises((ConfigError, ValueError), match=message):
         config = parse_robot_config(raw)
         WalkParams.of_robot(config.walking)
+        StabilizerGains.of_robot(config.stabilizer)
         load_robot(config)
 
 
@@ -221,6 +227,22 @@ def test_g1_without_grippers_is_refused_the_walk_and_reach_task_in_one_line(comm
     assert capsys.readouterr().err.strip().endswith(
         f"{command[0]}: robot g1 names no joints.grippers, joints.shoulders, joints.wrists in its config: the "
         "walk-and-reach task needs a gripper that closes round the drawer's handle")
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("section,value,message", [
+    ("stabilizer", {"lateral_dcm_rate": -1}, "stabilizer.lateral_dcm_rate = -1 must be a number in (0, 100.0]"),
+    ("walking", {"step_height": 0.1}, "walking.step_height is not a walking parameter a config sets"),
+])
+def test_a_bad_gain_in_a_robot_config_is_one_line_before_anything_runs(section, value, message, capsys, tmp_path):
+    raw = yaml.safe_load((CONFIG_DIR / "g1.yaml").read_text())
+    raw[section] = value
+    path = tmp_path / "g1.yaml"
+    path.write_text(yaml.safe_dump(raw))
+    out = tmp_path / "out"
+    assert main(["balance", "--robot", str(path), "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and message in err and "--robot g1" in err
     assert not out.exists()
 
 

@@ -63,3 +63,23 @@ def test_the_clamp_is_the_closest_point_of_the_nearest_edge():
     stabilizer.correction(estimate([0.02, -0.2], [0.0, -0.3], [0.0, 0.0]), np.zeros(2), np.zeros(2), np.zeros(2), 0.005)
     p = stabilizer.desired_zmp
     assert abs(p[1] + 0.155) < 1e-12 and -0.105 < p[0] < 0.105
+
+
+def test_the_lateral_dcm_rate_acts_across_the_heading():
+    """K_dcm per axis of the walking frame: the forward rate along the heading, the lateral one across
+    it. Walking along world y (heading 90°), a DCM error along world x is lateral."""
+    from robot_ctrl.control.stabilizer import StabilizerGains
+
+    omega = np.sqrt(9.81 / 0.8)
+    gains = StabilizerGains(dcm_rate=2.0, lateral_dcm_rate=6.0)
+    error = np.array([0.01, 0.004])  # the measured DCM's departure (world frame), by the CoM alone
+    for heading, k_x, k_y in ((0.0, 1 + 2.0 / omega, 1 + 6.0 / omega), (np.pi / 2, 1 + 6.0 / omega, 1 + 2.0 / omega)):
+        stabilizer = DcmStabilizer(com_height=0.8, gains=gains)
+        stabilizer.correction(estimate(error, [0.0, 0.0], [0.0, 0.0]), np.zeros(2), np.zeros(2), np.zeros(2), 0.005,
+                              heading=heading)
+        np.testing.assert_allclose(stabilizer.desired_zmp, [k_x * error[0], k_y * error[1]], rtol=1e-12, atol=1e-15)
+    # Without a lateral rate both axes take the forward one, whatever the heading.
+    stabilizer = DcmStabilizer(com_height=0.8, gains=StabilizerGains(dcm_rate=2.0))
+    stabilizer.correction(estimate(error, [0.0, 0.0], [0.0, 0.0]), np.zeros(2), np.zeros(2), np.zeros(2), 0.005,
+                          heading=1.0)
+    np.testing.assert_allclose(stabilizer.desired_zmp, (1 + 2.0 / omega) * error, rtol=1e-12)

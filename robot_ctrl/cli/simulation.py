@@ -64,6 +64,7 @@ def simulation(args: argparse.Namespace, robot=None, prop=None):
     check_outputs(args)
     disturbances = parse_disturbances(args)
     robot = robot or load_robot(args.robot)
+    check_controller_config(robot)
     if HardwareKind.parse(args.hw).real:
         check_real_robot(args, disturbances, robot)
     try:
@@ -72,6 +73,18 @@ def simulation(args: argparse.Namespace, robot=None, prop=None):
                                                   prop=prop)
     except (FileNotFoundError, ValueError) as exc:
         raise ConfigError(f"--hw {args.hw}: {exc}") from exc
+
+
+def check_controller_config(robot) -> None:
+    """The robot config's walking parameters and balance gains, checked before anything moves."""
+    from robot_ctrl.control.stabilizer import StabilizerGains
+    from robot_ctrl.wpg.params import WalkParams
+
+    try:
+        WalkParams.of_robot(robot.config.walking)
+        StabilizerGains.of_robot(robot.config.stabilizer)
+    except ValueError as exc:
+        raise ConfigError(f"--robot {robot.name}: {exc}") from exc
 
 
 def check_real_robot(args: argparse.Namespace, disturbances, robot) -> None:

@@ -27,7 +27,7 @@ import pinocchio as pin
 from robot_ctrl.control.attitude_filter import AttitudeFilter
 from robot_ctrl.control.estimator import StateEstimator
 from robot_ctrl.control.push_recovery import plan_velocity_change
-from robot_ctrl.control.stabilizer import DcmStabilizer
+from robot_ctrl.control.stabilizer import DcmStabilizer, StabilizerGains
 from robot_ctrl.control.static_feedforward import static_torques, weight_shares
 from robot_ctrl.dynfilter.dynamic_filter import DynamicFilter
 from robot_ctrl.dynfilter.filter_worker import DynamicFilterWorker
@@ -158,7 +158,7 @@ class WalkingController:
         if control_dt > self.params.sample_time:
             raise ValueError(f"control_dt = {control_dt} s must not exceed WalkParams.sample_time = "
                              f"{self.params.sample_time} s")
-        self.stabilizer = DcmStabilizer(self.params.com_height)
+        self.stabilizer = DcmStabilizer(self.params.com_height, StabilizerGains.of_robot(robot.config.stabilizer))
         self.stabilizer.enabled = options.stabilize
         self.start_posture = self.ik.posture.target.copy()
         self.upper_body = upper_body if upper_body is not None else (lambda t: self.start_posture)
@@ -403,7 +403,7 @@ class WalkingController:
         self.estimate = self.estimator.estimate(self.attitude_filter.update(state))
         self._measure_stance(ref)
         correction = self.stabilizer.correction(self.estimate, prepared.com, prepared.com_velocity,
-                                                ref.zmp + self._balance_shift, self.dt)
+                                                ref.zmp + self._balance_shift, self.dt, self.wpg.heading)
         ik = self.ik
         ik.com.set_target(np.array([*(prepared.com + correction), self.com_z]), ik.com.target_velocity)
         r = self.robot

@@ -103,6 +103,7 @@ class RobotConfig:
     servo_torque_fraction: float | None  # of the effort limit an upper-body command may demand; None: unbounded
     timestep: float  # [s] physics step of the simulation backend
     walking: Mapping[str, Any]  # WalkParams fields this robot's size calls for (robot_ctrl.wpg.params)
+    stabilizer: Mapping[str, Any]  # StabilizerGains fields this robot calls for (robot_ctrl.control.stabilizer)
     gait_swing: tuple[GaitSwing, ...]  # the walking demonstrations' upper-body motion
     walking_speed: float = DEFAULT_WALKING_SPEED  # [m/s] the walk's default speed (``walking.speed``)
 
@@ -205,6 +206,9 @@ def parse_robot_config(raw: Mapping[str, Any], source: str = "robot config") -> 
     speed = (_number(walking, "speed", f"{source}: walking", 0.02, 0.5) if "speed" in walking
              else DEFAULT_WALKING_SPEED)
     walking.pop("speed", None)
+    stabilizer = raw.get("stabilizer") or {}
+    if not isinstance(stabilizer, Mapping):
+        raise ConfigError(f"{source}: stabilizer must map stabilizer gains to values")
     limits = _field(raw, "limits", source, Mapping)
     sim = _field(raw, "simulation", source, Mapping)
     return RobotConfig(
@@ -243,6 +247,7 @@ def parse_robot_config(raw: Mapping[str, Any], source: str = "robot config") -> 
                                else _number(limits, "servo_torque_fraction", f"{source}: limits", 0.1, 1.0)),
         timestep=_number(sim, "timestep", f"{source}: simulation", 1e-4, 0.01),
         walking=walking,
+        stabilizer=dict(stabilizer),
         walking_speed=speed,
         gait_swing=_gait_swing(raw.get("gait_swing") or {}, posture, source),
     )
