@@ -2,6 +2,7 @@
 
 import numpy as np
 import pinocchio as pin
+import pytest
 
 from robot_ctrl.control.estimator import Estimate
 from robot_ctrl.control.stabilizer import DcmStabilizer
@@ -67,19 +68,45 @@ def test_the_clamp_is_the_closest_point_of_the_nearest_edge():
 
 def test_the_lateral_dcm_rate_acts_across_the_heading():
     """K_dcm per axis of the walking frame: the forward rate along the heading, the lateral one across
-    it. Walking along world y (heading 90°), a DCM error along world x is lateral."""
+    it, ``p_d = R diag(k_forward, k_lateral) Rᵀ (ξ_meas − ξ_ref)`` with R the heading's rotation (the
+    default heading 0: the world's axes)."""
     from robot_ctrl.control.stabilizer import StabilizerGains
 
     omega = np.sqrt(9.81 / 0.8)
-    gains = StabilizerGains(dcm_rate=2.0, lateral_dcm_rate=6.0)
+    k = np.diag([1 + 2.0 / omega, 1 + 6.0 / omega])
     error = np.array([0.01, 0.004])  # the measured DCM's departure (world frame), by the CoM alone
-    for heading, k_x, k_y in ((0.0, 1 + 2.0 / omega, 1 + 6.0 / omega), (np.pi / 2, 1 + 6.0 / omega, 1 + 2.0 / omega)):
-        stabilizer = DcmStabilizer(com_height=0.8, gains=gains)
+    for heading in (None, np.pi / 2, np.radians(30.0), -2.5):
+        stabilizer = DcmStabilizer(com_height=0.8, gains=StabilizerGains(dcm_rate=2.0, lateral_dcm_rate=6.0))
+        frame = {} if heading is None else {"heading": heading}
         stabilizer.correction(estimate(error, [0.0, 0.0], [0.0, 0.0]), np.zeros(2), np.zeros(2), np.zeros(2), 0.005,
-                              heading=heading)
-        np.testing.assert_allclose(stabilizer.desired_zmp, [k_x * error[0], k_y * error[1]], rtol=1e-12, atol=1e-15)
+                              **frame)
+        c, s = np.cos(heading or 0.0), np.sin(heading or 0.0)
+        R = np.array([[c, -s], [s, c]])
+        np.testing.assert_allclose(stabilizer.desired_zmp, R @ k @ R.T @ error, rtol=1e-12, atol=1e-15)
     # Without a lateral rate both axes take the forward one, whatever the heading.
     stabilizer = DcmStabilizer(com_height=0.8, gains=StabilizerGains(dcm_rate=2.0))
     stabilizer.correction(estimate(error, [0.0, 0.0], [0.0, 0.0]), np.zeros(2), np.zeros(2), np.zeros(2), 0.005,
                           heading=1.0)
     np.testing.assert_allclose(stabilizer.desired_zmp, (1 + 2.0 / omega) * error, rtol=1e-12)
+
+
+def test_a_robot_configs_gains_are_checked_field_by_field():
+    """``StabilizerGains.of_robot``: the defaults under a config's fields; a field that is no gain, or
+    a value outside (0, 100] (rates, 1/s) or (0, 0.2] (max_offset, m), is refused by name."""
+    from robot_ctrl.control.stabilizer import StabilizerGains
+
+    assert StabilizerGains.of_robot({}) == StabilizerGains()
+    gains = StabilizerGains.of_robot({"lateral_dcm_rate": 6, "max_offset": 0.2, "k_zmp": 100})
+    assert gains == StabilizerGains(lateral_dcm_rate=6.0, max_offset=0.2, k_zmp=100.0)
+    assert isinstance(gains.lateral_dcm_rate, float)
+    for fields, message in (({"dcm_gain": 3.0}, "stabilizer.dcm_gain is not a stabilizer gain (allowed: dcm_rate, "
+                                                "lateral_dcm_rate, k_zmp, k_com, k_leak, max_offset)"),
+                            ({"lateral_dcm_rate": 0.0}, "stabilizer.lateral_dcm_rate = 0.0 must be a number in (0, 100.0]"),
+                            ({"k_com": 100.5}, "stabilizer.k_com = 100.5 must be a number in (0, 100.0]"),
+                            ({"k_leak": True}, "stabilizer.k_leak = True must be a number in (0, 100.0]"),
+                            ({"dcm_rate": "2"}, "stabilizer.dcm_rate = '2' must be a number in (0, 100.0]"),
+                            ({"max_offset": 0.21}, "stabilizer.max_offset = 0.21 must be a number in (0, 0.2]"),
+                            ({"max_offset": -0.01}, "stabilizer.max_offset = -0.01 must be a number in (0, 0.2]")):
+        with pytest.raises(ValueError) as raised:
+            StabilizerGains.of_robot(fields)
+        assert str(raised.value) == f"robot config {message}"
