@@ -101,7 +101,8 @@ def test_a_robot_configs_gains_are_checked_field_by_field():
     assert isinstance(gains.lateral_dcm_rate, float)
     for fields, message in (({"dcm_gain": 3.0}, "stabilizer.dcm_gain is not a stabilizer gain (allowed: dcm_rate, "
                                                 "lateral_dcm_rate, k_zmp, k_com, k_leak, max_offset)"),
-                            ({"lateral_dcm_rate": 0.0}, "stabilizer.lateral_dcm_rate = 0.0 must be a number in (0, 100.0]"),
+                            ({"lateral_dcm_rate": 0.0},
+                             "stabilizer.lateral_dcm_rate = 0.0 must be a number in (0, 100.0]"),
                             ({"k_com": 100.5}, "stabilizer.k_com = 100.5 must be a number in (0, 100.0]"),
                             ({"k_leak": True}, "stabilizer.k_leak = True must be a number in (0, 100.0]"),
                             ({"dcm_rate": "2"}, "stabilizer.dcm_rate = '2' must be a number in (0, 100.0]"),

@@ -48,7 +48,8 @@ class StabilizerGains:
         names = [f.name for f in fields(cls)]
         for name, value in stabilizer.items():
             if name not in names:
-                raise ValueError(f"robot config stabilizer.{name} is not a stabilizer gain (allowed: {', '.join(names)})")
+                raise ValueError(f"robot config stabilizer.{name} is not a stabilizer gain "
+                                 f"(allowed: {', '.join(names)})")
             top = 0.2 if name == "max_offset" else 100.0
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0.0 < value <= top:
                 raise ValueError(f"robot config stabilizer.{name} = {value!r} must be a number in (0, {top}]")
