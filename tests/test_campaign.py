@@ -57,18 +57,19 @@ def test_trials_from_a_file_and_drawn_at_random(tmp_path):
     assert [(t.distance, t.slot, t.speed, t.jump) for t in trials] == [
         (1.6, "back_left", SpeedClass.SLOW, None), (1.7, "front_right", SpeedClass.FAST, None),
         (1.6, "front_left", SpeedClass.NOMINAL, (2.0, 1.9))]
+    # A trial keeps its report and time series; its campaign draws the page (no report.html to render).
     assert trials[1].trial().argv == ("drawer", "--distance", "1.7", "--slot", "front_right", "--speed", "fast",
-                                      "--dynfilter", "full", "--sources", "3+2")
+                                      "--dynfilter", "full", "--sources", "3+2", "--no-html")
     assert dataclasses.replace(trials[1], method="ours-no-feedback").trial().argv[-1] == "--no-position-feedback"
     # campaign --robot: each trial runs on the campaign's robot
     assert dataclasses.replace(trials[1], robot="g1").trial().argv[:3] == ("drawer", "--robot", "g1")
     naive = dataclasses.replace(trials[1], method="naive", sources="5+4", dataset="/data/feasible.npz").trial()
-    assert naive.argv[-6:] == ("--sources", "5+4", "--dataset", "/data/feasible.npz", "--method", "naive")
+    assert naive.argv[-7:] == ("--sources", "5+4", "--dataset", "/data/feasible.npz", "--no-html", "--method", "naive")
     assert naive.id == "001_naive_5+4_front_right_1.700m_fast"
     # the thesis's "WPG": the pipeline on the primitives the feasible runs came from, whatever --dataset says
     wpg = dataclasses.replace(trials[1], method="wpg-direct",
                               dataset=method_dataset("wpg-direct", "/data/feasible.npz", "talos"))
-    assert wpg.trial().argv[-2:] == ("--dataset", str(kinematic_dataset_path("talos")))
+    assert wpg.trial().argv[-3:] == ("--dataset", str(kinematic_dataset_path("talos")), "--no-html")
     assert method_dataset("ours", "/data/feasible.npz", "talos") == "/data/feasible.npz"
     drawn = draw_trials(30, 1, (SpeedClass.SLOW, SpeedClass.MIDDLE, SpeedClass.FAST), ("ours",), FilterMode.FULL)
     classes = (SpeedClass.SLOW, SpeedClass.MIDDLE, SpeedClass.FAST)

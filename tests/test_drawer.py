@@ -19,7 +19,8 @@ from robot_ctrl.synthesis.demonstrations import upper_body_joints
 
 
 def test_drawer_task_end_to_end(tmp_path):
-    status = main(["drawer", "--distance", "1.5", "--slot", "back_left", "--quiet", "--out", str(tmp_path)])
+    status = main(["drawer", "--distance", "1.5", "--slot", "back_left", "--quiet", "--no-html",
+                   "--out", str(tmp_path)])
     report = json.loads((tmp_path / "report.json").read_text())
     assert report["fell"] is False and status == 0
     # The synthesis drove the walk: two normal cycles, the short one, standing; the gait cycles the
@@ -36,6 +37,7 @@ def test_drawer_task_end_to_end(tmp_path):
     assert report["success"] is True
     series = np.load(tmp_path / "timeseries.npz")
     assert series["drawer_opening_m"][0] == 0.0 and series["drawer_opening_m"][-1] >= 0.28
+    assert not (tmp_path / "report.html").exists()  # --no-html: the page is rendered on demand
     assert main(["report", str(tmp_path)]) == 0
     page = (tmp_path / "report.html").read_text()
     assert page.count("data:image/png;base64,") == 6 and "Fig. 3.47" in page

@@ -30,7 +30,7 @@ def test_a_trial_file_runs_each_line_once_per_method(tmp_path):
                       DrawerTrial(3, "naive", 1.7, "front_right", SpeedClass.FAST, (2.5, 1.9), FilterMode.LEGS)]
     # The goal jump reaches the drawer command as TIME:DISTANCE.
     assert trials[2].trial().argv == ("drawer", "--distance", "1.7", "--slot", "front_right", "--speed", "fast",
-                                      "--dynfilter", "legs", "--sources", "3+2", "--goal-jump", "2.5:1.9")
+                                      "--dynfilter", "legs", "--sources", "3+2", "--goal-jump", "2.5:1.9", "--no-html")
 
 
 @pytest.mark.parametrize("text,message", [

@@ -102,7 +102,7 @@ def _drawer(args: argparse.Namespace) -> int:
         except SynthesisError as exc:
             raise ConfigError(f"drawer: --distance {task.distance} with these primitives (--dataset, --sources): "
                               f"{exc}") from exc
-    if args.out is not None:
+    if args.out is not None and not args.no_html:
         from robot_ctrl.eval.html_report import render_report
 
         log_line(f"wrote {render_report(args.out)}")
@@ -219,6 +219,9 @@ def _add_drawer(sub, sim) -> None:
     sources_arg(p)
     base_state_arg(p)
     p.add_argument("--out", type=Path, help="write DIR/report.json, DIR/timeseries.npz and DIR/report.html")
+    p.add_argument("--no-html", action="store_true",
+                   help="with --out, no DIR/report.html (campaign trials: their campaign has its own page; "
+                        "`robot-ctrl report DIR` renders it later)")
     log_arg(p)
     p.set_defaults(run=_drawer)
 

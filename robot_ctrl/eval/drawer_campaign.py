@@ -71,7 +71,7 @@ def _ours(t: DrawerTrial) -> tuple[str, ...]:
     dataset = ("--dataset", t.dataset) if t.dataset else ()
     robot = ("--robot", t.robot) if t.robot else ()
     return ("drawer", *robot, "--distance", f"{t.distance:g}", "--slot", t.slot, "--speed", t.speed.value,
-            "--dynfilter", t.dynfilter.value, "--sources", t.sources, *jump, *dataset)
+            "--dynfilter", t.dynfilter.value, "--sources", t.sources, *jump, *dataset, "--no-html")
 
 
 def _ours_no_feedback(t: DrawerTrial) -> tuple[str, ...]:
