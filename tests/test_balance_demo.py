@@ -34,7 +34,7 @@ def test_balance_demo_cli(robot, tmp_path):
 
 def test_unknown_robot_exits_with_a_clear_error(capsys):
     assert main(["balance", "--robot", "asimo"]) == 2
-    assert "unknown robot 'asimo'; available robots: g1, talos" in capsys.readouterr().err
+    assert "unknown robot 'asimo'; available robots: g1, g1_dex3, talos" in capsys.readouterr().err
 
 
 def test_static_feedforward_puts_the_zmp_under_the_com(talos):

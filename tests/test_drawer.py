@@ -15,7 +15,7 @@ from robot_ctrl.hw.drawer_cabinet import DrawerPlacement
 from robot_ctrl.hw.mujoco_backend import MujocoBackend
 from robot_ctrl.hw.types import JointCommand
 from robot_ctrl.robot.model import load_robot
-from robot_ctrl.synthesis.demonstrations import upper_body_joints
+from robot_ctrl.synthesis.demonstrations import comfort_distance, upper_body_joints
 
 
 def test_drawer_task_end_to_end(tmp_path):
@@ -77,6 +77,27 @@ def test_the_demo_drawer_task_succeeds(tmp_path):
     assert max(report["safety"]["demanded_peak_torque_ratio"].values()) <= 1.0
 
 
+def test_g1_with_hands_opens_its_own_cabinet_and_reaches_the_object(tmp_path):
+    """The same task on Unitree G1 with its Dex3 hands, by configuration alone: its cabinet and gait at
+    0.7 × Talos's size, its demonstrations, the index finger closing toward its lower limit. The
+    config runs it unfiltered (``drawer.dynfilter``); no servo is asked for more than its effort at a
+    control tick, the safety layer never steps in, and no arm rolls in against the torso."""
+    status = main(["drawer", "--robot", "g1_dex3", "--distance", "2.0", "--slot", "back_right", "--quiet",
+                   "--no-html", "--out", str(tmp_path)])
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert status == 0 and report["success"] is True and report["dynfilter"] == "off"
+    assert abs(report["final_pelvis_to_drawer_m"] - report["comfort_distance_m"]) <= 0.01
+    assert report["grasp"] == "weld" and report["hand_to_handle_m"] <= 0.01
+    assert report["drawer_opening_m"] >= report["drawer_opening_required_m"] == pytest.approx(0.28 * 0.7)
+    assert report["hand_to_object_m"] <= 0.02 and report["zmp_in_support_ratio"] >= 0.98
+    assert report["safety"]["interventions"] == {}
+    assert max(report["safety"]["demanded_peak_torque_ratio"].values()) <= 0.95 + 1e-9
+    series = np.load(tmp_path / "timeseries.npz")
+    g1 = load_robot("g1_dex3")
+    roll = [g1.joint_names.index(f"{s}_shoulder_roll_joint") for s in ("left", "right")]
+    assert (series["joint_q"][:, roll] * [-1, 1]).max() <= 0.01  # never rolled in (docs/robots.md)
+
+
 def test_the_drawer_task_succeeds_on_noisy_sensors_and_late_commands(tmp_path):
     """Encoders (1 mrad), IMU attitude (0.5°) and foot force sensors noisy, commands 10 ms late:
     the attitude filter keeps the estimated hands and the task's frame within the grasp's 1 cm
@@ -90,20 +111,34 @@ def test_the_drawer_task_succeeds_on_noisy_sensors_and_late_commands(tmp_path):
     assert report["safety"]["interventions"] == {}  # the IK's servo bounds judge the noisy, late state too
 
 
-def test_drawer_takes_a_real_force_to_open(talos):
+@pytest.mark.parametrize("name", ["talos", "g1_dex3"])
+def test_drawer_takes_a_real_force_to_open(name):
     """Pulling the drawer with the grasp welded: the force the hand needs is the runners' friction
-    (plus damping), measured through the weld's constraint force."""
-    geometry = DrawerGeometry()
-    backend = MujocoBackend(talos, prop=DrawerPlacement(1.2, "front_left"))
+    (plus damping), measured through the weld's constraint force. The cabinet is the robot's (G1's
+    at 0.7 × Talos's size); the grasp switches on with the gripper at its closing end, which is the
+    upper limit for Talos's gripper, the lower for G1's left index finger."""
+    robot = load_robot(name)
+    geometry = robot.config.drawer
+    backend = MujocoBackend(robot, prop=DrawerPlacement(1.2, "front_left"))
     backend.configure()
     backend.activate()
     m, d, cabinet = backend.m, backend.d, backend.cabinet
-    assert m.jnt_range[m.joint("drawer_slide").id].tolist() == [0.0, geometry.travel]
+    assert m.jnt_range[m.joint("drawer_slide").id].tolist() == pytest.approx([0.0, geometry.travel])
+    assert m.body("drawer").mass[0] == pytest.approx(geometry.drawer_mass)
     state = backend.read()
-    # Bring the handle to the (closed) gripper and let the measured condition switch the grasp on.
+    gripper = robot.config.joint_index("grippers", "left")
+    q = state.q.copy()
+    open_end = robot.lower[gripper] if robot.config.grippers.closing_sign("left") > 0 else robot.upper[gripper]
+    q[gripper] = d.qpos[cabinet.gripper_qpos] = open_end
+    # Bring the handle to the open gripper: no grasp; close it there: the measured condition switches it on.
     d.mocap_pos[cabinet.mocap] += d.xpos[cabinet.hand] - d.site_xpos[cabinet.grip_site]
     mujoco.mj_forward(m, d)
-    command = JointCommand(state.q, np.zeros(talos.nj), talos.kp, talos.kd, np.zeros(talos.nj))
+    command = JointCommand(q, np.zeros(robot.nj), robot.kp, robot.kd, np.zeros(robot.nj))
+    backend.write(command)
+    assert dict(zip(DRAWER_READINGS, backend.read().scene))["grasped"] == 0.0
+    q[gripper] = d.qpos[cabinet.gripper_qpos] = cabinet.gripper_closed_at
+    d.mocap_pos[cabinet.mocap] += d.xpos[cabinet.hand] - d.site_xpos[cabinet.grip_site]
+    mujoco.mj_forward(m, d)
     backend.write(command)
     scene = dict(zip(DRAWER_READINGS, backend.read().scene))
     assert scene["grasped"] == 1.0 and scene["left_hand_to_handle_m"] < 1e-3
@@ -118,6 +153,19 @@ def test_drawer_takes_a_real_force_to_open(talos):
     assert 0.05 < scene["drawer_opening_m"] < 0.1
     assert geometry.slide_friction * 0.9 < np.median(forces) < geometry.slide_friction * 3, forces
     backend.close()
+
+
+def test_the_cabinet_is_sized_to_the_robot():
+    """Talos's config keeps the cabinet as designed; G1's scales every length by its ``drawer.scale``
+    and the drawer's mass and friction by its cube; the demonstrations' comfort distance follows."""
+    talos, g1 = load_robot("talos"), load_robot("g1_dex3")
+    assert talos.config.drawer == DrawerGeometry()
+    g, s = g1.config.drawer, 0.70
+    np.testing.assert_allclose(g.handle_grip, np.array(DrawerGeometry().handle_grip) * s)
+    assert g.clearance == pytest.approx({"front": 0.14 * s, "back": 0.28 * s})
+    assert g.opening("back_left") == pytest.approx(0.32 * s) and g.travel == pytest.approx(0.35 * s)
+    assert g.drawer_mass == pytest.approx(3.0 * s**3) and g.slide_friction == pytest.approx(15.0 * s**3)
+    assert 0.35 < comfort_distance(g1) < 0.5 < comfort_distance(talos)
 
 
 @pytest.mark.parametrize("args,message", [

@@ -9,6 +9,7 @@ import pytest
 import yaml
 
 from robot_ctrl.cli import main
+from robot_ctrl.modes import FilterMode
 from robot_ctrl.robot import ConfigError, load_robot, load_robot_config
 from robot_ctrl.robot.config import CONFIG_DIR, parse_robot_config
 from robot_ctrl.robot.description import read_srdf
@@ -223,6 +224,53 @@ def test_g1_without_grippers_is_refused_the_walk_and_reach_task_in_one_line(comm
         f"{command[0]}: robot g1 names no joints.grippers, joints.shoulders, joints.wrists in its config: the "
         "walk-and-reach task needs a gripper that closes round the drawer's handle")
     assert not out.exists()
+
+
+def test_a_variant_config_states_only_what_differs_from_the_robot_it_extends():
+    """g1_dex3 is g1 with hands: the base's fields hold unless stated again, mappings merge key by key
+    (the fingers' rotor inertias join the body's), the hands' joints join the joint order."""
+    g1, dex3 = load_robot_config("g1"), load_robot_config("g1_dex3")
+    assert dex3.name == "g1_dex3" and dex3.urdf == "urdf/g1_29dof_with_hand_rev_1_0.urdf" and dex3.srdf is None
+    assert dex3.joint_names[:29] == g1.joint_names and len(dex3.joint_names) == 43
+    assert dex3.half_sitting[:29] == g1.half_sitting
+    assert dex3.servo.armature == g1.servo.armature | {n: 0.001 for n in dex3.joint_names[29:]}
+    assert (dex3.walking, dex3.stabilizer, dex3.walking_speed, dex3.foot) == \
+        (g1.walking, g1.stabilizer, g1.walking_speed, g1.foot)
+    assert dex3.hands == {"left": "left_hand_palm_link", "right": "right_hand_palm_link"}
+    assert dex3.joint_roles["elbows"] == g1.joint_roles["elbows"] and "grippers" in dex3.joint_roles
+    assert dex3.grippers.closing_sign("left") == -1.0 and dex3.grippers.closing_sign("right") == 1.0
+    assert g1.grippers.closing_sign("left") == 1.0  # a config without grasp: closes at the upper limit
+    assert load_robot("g1_dex3").pin.nq == load_robot("g1").pin.nq + 14
+    assert (g1.drawer_dynfilter, dex3.drawer_dynfilter) == (FilterMode.FULL, FilterMode.OFF)
+
+
+def test_an_unquoted_off_in_a_config_is_the_filter_mode_off(tmp_path):
+    path = tmp_path / "g1_off.yaml"
+    path.write_text("extends: g1_dex3\ndrawer: {dynfilter: off}\n")  # YAML 1.1 reads it as false
+    config = load_robot_config(path)
+    assert config.drawer_dynfilter is FilterMode.OFF and config.drawer_scale == 0.7
+
+
+@pytest.mark.parametrize("text,message", [
+    ("extends: asimo\nname: x\n", "extends 'asimo': no such config; available robots: g1, g1_dex3, talos"),
+    ("extends: [g1]\n", "field 'extends' must be a robot name or a YAML path"),
+    ("extends: self.yaml\nname: x\n", "extends 'self.yaml': a cycle"),
+    ("extends: g1\ngrasp: {closes_toward: {left: lower}, opening: 1.0}\n",
+     "grasp.closes_toward must map left and right to upper or lower"),
+    ("extends: g1\ngrasp: {closes_toward: {left: lower, right: upper}, opening: 9}\n",
+     "grasp: field 'opening' = 9 is outside the allowed range [0.05, 3.0]"),
+    ("extends: g1\ndrawer: {scale: 0.1}\n", "drawer: field 'scale' = 0.1 is outside the allowed range [0.3, 2.0]"),
+    ("extends: g1\ndrawer: {scal: 0.7}\n", "drawer.scal is not a field of drawer (scale, dynfilter)"),
+    ("extends: g1\ndrawer: {dynfilter: half}\n", "drawer.dynfilter 'half' is not one of off, legs, full"),
+    ("extends: g1\nlimits: {ik_ranges: {left_knee_joint: [0.0, 0.5]}}\n",
+     "limits.ik_ranges.left_knee_joint must be [lower, upper] rad around its half_sitting angle 0.75"),
+])
+def test_a_bad_variant_config_is_named(text, message, tmp_path):
+    path = tmp_path / "self.yaml"
+    path.write_text(text)
+    with pytest.raises(ConfigError) as caught:
+        load_robot_config(path)
+    assert message in str(caught.value) and "\n" not in str(caught.value)
 
 
 @pytest.mark.parametrize("section,value,message", [

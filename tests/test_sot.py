@@ -310,3 +310,27 @@ def test_a_braking_bound_slows_a_joint_before_its_soft_limit_without_bounding_it
     free = JointLimits.from_robot(dataclasses.replace(robot, config=dataclasses.replace(robot.config,
                                                                                         braking_fraction=None)))
     assert free.bounds(q, DT)[1][j] == min(0.05 / DT, free.v_max[j]) > hi[j]
+
+
+def test_a_configs_ik_range_keeps_an_arm_off_the_torso():
+    """G1's config narrows the shoulder roll the IK may use (``limits.ik_ranges``): a right hand sent
+    low in front of the belly reaches it without rolling its shoulder in (positive on the right);
+    with the URDF's range alone the IK rolls it in."""
+    from robot_ctrl.robot import load_robot
+
+    g1 = load_robot("g1")
+    roll = g1.joint_names.index("right_shoulder_roll_joint")
+    assert g1.config.ik_ranges["right_shoulder_roll_joint"] == (-2.2515, 0.0)
+    rolls = {}
+    for name, robot in (("config", g1), ("urdf", dataclasses.replace(
+            g1, config=dataclasses.replace(g1.config, ik_ranges={})))):
+        ik = WholeBodyIK(robot, robot.q_half_sitting, acceleration_limits=False)
+        assert ik.solver.limits.q_max[roll] == (0.0 if name == "config" else pytest.approx(robot.upper[roll] - 0.02))
+        target = ik.pose("waist").translation + [0.2, -0.05, 0.0]
+        ik.hands["right"].active = True
+        ik.hands["right"].set_target(pin.SE3(np.eye(3), target))
+        for _ in range(400):
+            ik.step(DT)
+        rolls[name] = ik.q[robot.q_index][roll]
+        assert np.linalg.norm(ik.pose("right_hand").translation - target) < 0.005
+    assert rolls["config"] <= 1e-9 and rolls["urdf"] > 0.1, rolls

@@ -27,10 +27,11 @@ def _campaign(args: argparse.Namespace) -> int:
     from robot_ctrl.synthesis.synthesizer import GoalJump
 
     check_ranges("campaign", args)
+    robot = load_robot(args.robot)
     try:
         methods = campaign.parse_methods(args.method)
         speeds = campaign.parse_speeds(args.speeds)
-        dynfilter = FilterMode.parse(args.dynfilter)
+        dynfilter = FilterMode.parse(args.dynfilter or robot.config.drawer_dynfilter)
         if args.trials is not None:
             trials = campaign.read_trials(args.trials, methods, dynfilter)
         else:
@@ -39,7 +40,6 @@ def _campaign(args: argparse.Namespace) -> int:
         raise ConfigError(f"campaign: {exc}".replace("speed ", "--speeds ").replace("method ", "--method ")) from exc
     sources = parse_sources(args.sources, "campaign: --sources")
     dataset = str(args.dataset.resolve()) if args.dataset is not None else None
-    robot = load_robot(args.robot)
     trials = [replace(t, index=k, sources=f"{first}+{extra}", robot=robot.name,
                       dataset=campaign.method_dataset(t.method, dataset, robot.name))
               for k, (t, (first, extra)) in enumerate((t, s) for t in trials for s in sources)]
@@ -87,8 +87,8 @@ def add_parsers(sub, robot) -> None:
                    help="comma-separated methods: ours, ours-no-feedback (the commander's position loops off), naive "
                         "(every joint learned and played on the servos, thesis 3.8.4), wpg-direct (the generator of "
                         "the feasible training runs: the pipeline on the kinematic set's primitives)")
-    p.add_argument("--dynfilter", choices=[m.value for m in FilterMode], default=FilterMode.FULL.value,
-                   help="dynamic filter of every trial")
+    p.add_argument("--dynfilter", choices=[m.value for m in FilterMode], default=None,
+                   help="dynamic filter of every trial (default: full, or the robot config's drawer.dynfilter)")
     dataset_arg(p)
     sources_arg(p, many=True)
     p.add_argument("--jobs", type=int, default=2, help="trials at a time, 1..256")

@@ -79,14 +79,15 @@ def _drawer(args: argparse.Namespace) -> int:
     from robot_ctrl.synthesis.synthesizer import SynthesisError
 
     jumps = tuple(time_distance(j, "--goal-jump") for j in args.goal_jump)
-    task = DrawerTask(args.distance, args.slot, jumps, FilterMode(args.dynfilter), base_state=base_state_of(args),
-                      speed=SpeedClass(args.speed), position_feedback=not args.no_position_feedback,
+    robot = load_robot(args.robot)
+    task = DrawerTask(args.distance, args.slot, jumps, FilterMode(args.dynfilter or robot.config.drawer_dynfilter),
+                      base_state=base_state_of(args), speed=SpeedClass(args.speed),
+                      position_feedback=not args.no_position_feedback,
                       method=DrawerMethod(args.method))
     parse_disturbances(args)
     sources = parse_sources(args.sources, "drawer: --sources")
     if len(sources) != 1:
         raise ConfigError(f"drawer: --sources {args.sources!r}: one FIRST+EXTRA (a campaign compares several)")
-    robot = load_robot(args.robot)
     naive = task.method is DrawerMethod.NAIVE
     check_drawer_tasks({"drawer": task}, robot, DRAWER_OPTIONS, args.dataset, whole_body=naive)
     try:
@@ -204,8 +205,9 @@ def _add_drawer(sub, sim) -> None:
     p.add_argument("--slot", default="front_left", help="object slot: front_left, front_right, back_left, back_right")
     p.add_argument("--goal-jump", action="append", default=[], metavar="TIME:DISTANCE",
                    help="at TIME [s] the cabinet moves to DISTANCE [m]; the synthesis replans (repeatable)")
-    p.add_argument("--dynfilter", choices=[m.value for m in FilterMode], default=FilterMode.FULL.value,
-                   help="dynamic filter: off, legs only, or full body (default)")
+    p.add_argument("--dynfilter", choices=[m.value for m in FilterMode], default=None,
+                   help="dynamic filter: off, legs only, or full body (default: full, or the robot config's "
+                        "drawer.dynfilter)")
     p.add_argument("--speed", choices=[m.value for m in SpeedClass], default=SpeedClass.NOMINAL.value,
                    help="speed class: the synthesized sequence played at 0.8 (slow), 0.92 (middle), 1.0 (nominal) "
                         "or 1.2 (fast) times its learned timing (thesis 3.3.2, Table 3.1)")

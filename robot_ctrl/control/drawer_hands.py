@@ -33,7 +33,6 @@ REACH = (0.35, 0.95)  # share of the short cycle over which the left hand blends
 OBJECT_REACH = (0.25, 0.85)  # share of the standing action over which the right hand blends to the object
 CLOSE_DISTANCE = 0.02  # [m] the measured hand this near the handle: close the gripper
 GRASP_DISTANCE = 0.01  # [m] and this near, with the gripper closed: it holds the handle
-GRIPPER_OPEN = 0.25  # [rad] below the gripper's closed end
 GRIPPER_OPENING = 0.35  # share of the short cycle the gripper takes to open (a slow servo)
 GRIPPER_CLOSE_TIME = 0.6  # [s]
 GRIPPER_CLOSED = 0.05  # [rad] a measured gripper this near its closed target is closed
@@ -49,7 +48,11 @@ class DrawerHands:
         self.controller, self.targets, self.body = controller, targets, body
         robot = controller.robot
         self._gripper = robot.config.joint_index("grippers", "left")  # the left hand pulls
-        self._closed = float(robot.upper[self._gripper]) - robot.config.position_margin
+        # Closed: the gripper's closing end, within the IK's soft limit; open: ``opening`` back from it.
+        self._closing = robot.config.grippers.closing_sign("left")
+        end = robot.upper if self._closing > 0 else robot.lower
+        self._closed = float(end[self._gripper]) - self._closing * robot.config.position_margin
+        self._opening = robot.config.grippers.opening
         self._bias = {s: np.zeros(3) for s in SIDES}
         self._last: dict[str, np.ndarray] = {}  # each hand's last target, or the IK's hand while free
         self._reference: dict[str, np.ndarray] = {}  # each hand of the IK's reference at the last tick
@@ -95,11 +98,12 @@ class DrawerHands:
         opened = minimum_jerk(reach, GRIPPER_OPENING)[0]
         if self._closing_since is not None:
             opened *= 1.0 - minimum_jerk(t - self._closing_since, GRIPPER_CLOSE_TIME)[0]
-        posture[self._gripper] = self._closed - GRIPPER_OPEN * opened
+        posture[self._gripper] = self._closed - self._closing * self._opening * opened
         relative = self.body.hands_from_pelvis(upper_q, c.reference_configuration(), targets.start[2])["left"]
         if not self.holding:
             gripper = c.estimate.configuration[c.robot.q_index[self._gripper]]
-            if self._closing_since is None or gripper < self._closed - GRIPPER_CLOSED or near > GRASP_DISTANCE:
+            closed = self._closing * (gripper - self._closed) >= -GRIPPER_CLOSED
+            if self._closing_since is None or not closed or near > GRASP_DISTANCE:
                 s, _ = minimum_jerk(reach - REACH[0], REACH[1] - REACH[0])
                 self._free("left", self._blend("left", s, upper_q, handle))
                 return

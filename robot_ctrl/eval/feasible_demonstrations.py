@@ -42,6 +42,7 @@ from robot_ctrl.eval.campaign_runner import trial_dir
 from robot_ctrl.eval.drawer_campaign import DrawerTrial, run_drawer_trials
 from robot_ctrl.geometry import GRAVITY
 from robot_ctrl.modes import SpeedClass
+from robot_ctrl.robot.config import load_robot_config
 from robot_ctrl.robot.model import RobotModel
 from robot_ctrl.synthesis.demonstrations import (
     PELVIS_CHANNELS,
@@ -67,8 +68,9 @@ BODY_BASE_CHANNELS = ("base_z", "base_roll", "base_pitch")
 
 def feasible_trials(dataset: Path, robot: str) -> list[DrawerTrial]:
     """The runs of ``robot``: every base at every speed class, with primitives learned from ``dataset``."""
-    return [DrawerTrial(i * len(FEASIBLE_SPEEDS) + j, "ours", d, slot, speed, dataset=str(Path(dataset).resolve()),
-                        robot=robot)
+    dynfilter = load_robot_config(robot).drawer_dynfilter
+    return [DrawerTrial(i * len(FEASIBLE_SPEEDS) + j, "ours", d, slot, speed, dynfilter=dynfilter,
+                        dataset=str(Path(dataset).resolve()), robot=robot)
             for i, (d, slot) in enumerate(FEASIBLE_BASES) for j, speed in enumerate(FEASIBLE_SPEEDS)]
 
 

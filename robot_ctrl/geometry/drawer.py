@@ -6,12 +6,13 @@ toward the drawer, y left, z up, metres. x is measured from the drawer's front p
 the robot's side of it), y from the pelvis's sagittal plane, z from the standing pelvis height.
 The cabinet's proportions are ours, scaled to Talos (the top drawer of a tall chest, its handle a
 little above the pelvis, so that the forearm passes above the hip when the drawer is pulled 32 cm);
-the opening clearances are the thesis's (3.3.1).
+the opening clearances are the thesis's (3.3.1). Another robot's config scales the whole
+(``drawer.scale``, :meth:`DrawerGeometry.scaled`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 
@@ -22,6 +23,9 @@ DRAWER_READINGS = ("drawer_opening_m", "drawer_velocity_mps", "drawer_pull_force
                    "left_hand_to_handle_m", "right_hand_to_object_m", "cabinet_distance_m")
 
 SLOTS = ("front_left", "front_right", "back_left", "back_right")
+
+
+_MASS_LIKE = ("drawer_mass", "slide_damping", "slide_friction")
 
 
 def cabinet_distance(distance: float, jumps, t: float) -> float:
@@ -56,6 +60,19 @@ class DrawerGeometry:
     slide_damping: float = 10.0  # [N·s/m] viscous friction: 3 N more at 0.3 m/s
     slide_friction: float = 15.0  # [N] dry friction of the runners: the force to start it moving
     cabinet_depth: float = 0.50
+
+    def scaled(self, s: float) -> "DrawerGeometry":
+        """The same cabinet ``s`` times the size: every length × s; the drawer's mass and its slide's
+        damping and friction × s³, as a robot's mass goes with the cube of its size."""
+        if s == 1.0:
+            return self
+        out = {}
+        for f in fields(self):
+            v = getattr(self, f.name)
+            k = s ** 3 if f.name in _MASS_LIKE else s
+            out[f.name] = ({key: x * k for key, x in v.items()} if isinstance(v, dict) else
+                           tuple(x * k for x in v) if isinstance(v, tuple) else v * k)
+        return replace(self, **out)
 
     def opening(self, slot: str) -> float:
         """How far the drawer is pulled for ``slot`` [m]: the clearance plus the margin."""

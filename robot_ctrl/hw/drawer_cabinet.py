@@ -21,7 +21,7 @@ from __future__ import annotations
 import hashlib
 import os
 import tempfile
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import mujoco
@@ -31,7 +31,7 @@ from robot_ctrl import __version__
 from robot_ctrl.geometry.drawer import DRAWER_READINGS, SLOTS, DrawerGeometry, cabinet_distance
 
 GRASP_DISTANCE = 0.01  # [m] gripper base to the handle's grip point for the weld to switch on
-GRIPPER_CLOSED = 0.1  # [rad] the gripper joint within this of its closed end (upper limit) is closed
+GRIPPER_CLOSED = 0.1  # [rad] the gripper joint within this of its closed end is closed
 GRASP_SIDE = "left"
 
 
@@ -39,12 +39,13 @@ GRASP_SIDE = "left"
 class DrawerPlacement:
     """Where the cabinet stands: its closed drawer's front panel ``distance`` [m] ahead of the
     robot's start pelvis along the start heading; ``jumps``: (time [s], new distance [m]) at which
-    it is moved (thesis Fig. 3.39); ``slot``: the object the right hand reaches for."""
+    it is moved (thesis Fig. 3.39); ``slot``: the object the right hand reaches for; ``geometry``:
+    the cabinet, by default the robot's (its config's ``drawer:``)."""
 
     distance: float
     slot: str = "front_left"
     jumps: tuple[tuple[float, float], ...] = ()
-    geometry: DrawerGeometry = field(default_factory=DrawerGeometry)
+    geometry: DrawerGeometry | None = None
 
     def distance_at(self, t: float) -> float:
         return cabinet_distance(self.distance, self.jumps, t)
@@ -75,7 +76,11 @@ def add_cabinet(spec: mujoco.MjSpec, geometry: DrawerGeometry, hand_body: str) -
          wood)
     _box(cabinet, "cabinet_base", [0.0, y0 - 0.005, floor], [g.cabinet_depth - 0.02, y1 + 0.005,
                                                               g.front_panel_z[0] - 0.005], wood)
-    drawer = cabinet.add_body(name="drawer", mass=g.drawer_mass)
+    # The drawer's mass is the geometry's, its inertia a uniform box of its outline (its geoms only show it).
+    size = np.array([g.drawer_depth, y1 - y0, g.front_panel_z[1] - g.drawer_bottom_z + 0.01])
+    drawer = cabinet.add_body(name="drawer", mass=g.drawer_mass, explicitinertial=True,
+                              ipos=[g.drawer_depth / 2, (y0 + y1) / 2, (g.front_panel_z[1] + g.drawer_bottom_z) / 2],
+                              inertia=g.drawer_mass / 12 * (size[[1, 0, 0]] ** 2 + size[[2, 2, 1]] ** 2))
     drawer.add_joint(name="drawer_slide", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[-1, 0, 0], range=[0, g.travel],
                      damping=g.slide_damping, frictionloss=g.slide_friction)
     zb, zw = g.drawer_bottom_z, g.drawer_bottom_z + g.drawer_wall_height
@@ -130,9 +135,9 @@ class DrawerCabinet:
     STANDING = ("cabinet_left", "cabinet_right", "cabinet_back", "cabinet_base")  # geoms down to the floor
 
     def __init__(self, m: mujoco.MjModel, placement: DrawerPlacement, prefix: str,
-                 start_xy_yaw: np.ndarray, hands: dict[str, str], gripper_joint: str):
+                 start_xy_yaw: np.ndarray, hands: dict[str, str], gripper_joint: str, closing_sign: float = 1.0):
         """``hands``: side → the robot's hand body (without ``prefix``); ``gripper_joint``: the
-        grasping hand's gripper."""
+        grasping hand's gripper, closing toward its upper limit (``closing_sign`` +1) or its lower (-1)."""
         self.m, self.placement = m, placement
         self.start = np.asarray(start_xy_yaw, dtype=float)
         self.mocap = int(m.body("cabinet").mocapid[0])
@@ -142,7 +147,8 @@ class DrawerCabinet:
         self.hand = m.body(prefix + hands[GRASP_SIDE]).id
         self.reaching_hand = m.body(prefix + hands["right" if GRASP_SIDE == "left" else "left"]).id
         gripper = m.joint(prefix + gripper_joint)
-        self.gripper_qpos, self.gripper_closed_at = int(gripper.qposadr[0]), float(gripper.range[1])
+        self.gripper_qpos, self.closing_sign = int(gripper.qposadr[0]), closing_sign
+        self.gripper_closed_at = float(gripper.range[1] if closing_sign > 0 else gripper.range[0])
         self.grip_site, self.slot_site = m.site("handle_grip").id, m.site(f"slot_{placement.slot}").id
         self.weld = m.equality("grasp").id
         self.pelvis_height = 0.0
@@ -172,7 +178,7 @@ class DrawerCabinet:
             self.grasp_time = float(d.time)
 
     def grasp_ready(self, d: mujoco.MjData) -> bool:
-        closed = d.qpos[self.gripper_qpos] >= self.gripper_closed_at - GRIPPER_CLOSED
+        closed = self.closing_sign * (d.qpos[self.gripper_qpos] - self.gripper_closed_at) >= -GRIPPER_CLOSED
         return bool(closed and self.hand_to_handle(d) <= GRASP_DISTANCE)
 
     def hand_to_handle(self, d: mujoco.MjData) -> float:

@@ -46,7 +46,8 @@ class MujocoBackend(HardwareAdapter):
         if prop is not None and world is not None:
             raise ValueError("the drawer cabinet goes into a robot's own world, not a shared one")
         hand = f"{robot.name}/{robot.config.hands[GRASP_SIDE]}"
-        scene = robot.mjcf_path if prop is None else drawer_scene_mjcf(robot.mjcf_path, prop.geometry, hand)
+        scene = (robot.mjcf_path if prop is None
+                 else drawer_scene_mjcf(robot.mjcf_path, prop.geometry or robot.config.drawer, hand))
         self.world = (MujocoWorld(scene, control_dt, viewer, video, disturbances.friction_scale)
                       if world is None else world)
         self.world.attach()
@@ -101,7 +102,8 @@ class MujocoBackend(HardwareAdapter):
         self._gear = self.m.actuator_gear[self._acts, 0].copy()
         self._joint_order = np.arange(self.nj)
         self.cabinet = None if prop is None else DrawerCabinet(
-            self.m, prop, prefix, self._start, robot.config.hands, robot.config.joint_roles["grippers"][GRASP_SIDE])
+            self.m, prop, prefix, self._start, robot.config.hands, robot.config.joint_roles["grippers"][GRASP_SIDE],
+            robot.config.grippers.closing_sign(GRASP_SIDE))
         self._disturb(disturbances)
 
     def _disturb(self, dist: Disturbances) -> None:

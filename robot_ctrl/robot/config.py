@@ -7,13 +7,15 @@ Units are SI; angles in radians.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
 
 import yaml
 
 from robot_ctrl import ROOT
+from robot_ctrl.geometry.drawer import DrawerGeometry
+from robot_ctrl.modes import FilterMode
 
 CONFIG_DIR = ROOT / "configs" / "robots"
 
@@ -77,6 +79,24 @@ class GaitSwing:
 
 
 @dataclass(frozen=True)
+class Grippers:
+    """How the walk-and-reach task's gripper joints (``joints.grippers``) close: per side, toward the
+    joint's ``upper`` or ``lower`` limit; ``opening`` [rad]: how far from there a gripper opens to
+    take the handle."""
+
+    closes_toward: Mapping[str, str]
+    opening: float
+
+    def closing_sign(self, side: str) -> float:
+        """+1 where the gripper closes toward its upper limit, -1 toward its lower."""
+        return 1.0 if self.closes_toward[side] == "upper" else -1.0
+
+
+#: A gripper that closes toward its upper limit and opens 0.25 rad to take the handle (Talos's).
+DEFAULT_GRIPPERS = Grippers({"left": "upper", "right": "upper"}, 0.25)
+
+
+@dataclass(frozen=True)
 class RobotConfig:
     """Static description of one robot (see ``configs/robots/talos.yaml`` for the fields)."""
 
@@ -106,6 +126,14 @@ class RobotConfig:
     stabilizer: Mapping[str, Any]  # StabilizerGains fields this robot calls for (robot_ctrl.control.stabilizer)
     gait_swing: tuple[GaitSwing, ...]  # the walking demonstrations' upper-body motion
     walking_speed: float = DEFAULT_WALKING_SPEED  # [m/s] the walk's default speed (``walking.speed``)
+    grippers: Grippers = DEFAULT_GRIPPERS  # how the walk-and-reach task's grippers close (``grasp:``)
+    # The walk-and-reach task at this robot's size (``drawer.scale``, Talos 1): the cabinet, and the
+    # demonstrations' gait lengths (robot_ctrl/synthesis/demonstrations.py)
+    drawer_scale: float = 1.0
+    drawer: DrawerGeometry = DrawerGeometry()
+    drawer_dynfilter: FilterMode = FilterMode.FULL  # the drawer task's default dynamic filter (``drawer.dynfilter``)
+    # joint -> (lower, upper) [rad]: ranges the IK keeps narrower than the URDF's (``limits.ik_ranges``)
+    ik_ranges: Mapping[str, tuple[float, float]] = field(default_factory=dict)
 
     @property
     def frames(self) -> dict[str, str]:
@@ -142,11 +170,40 @@ def load_robot_config(name_or_path: str | Path) -> RobotConfig:
             raise ConfigError(
                 f"unknown robot {str(name_or_path)!r}; available robots: {', '.join(available_robots())}"
             )
+    return parse_robot_config(_read_extended(path, ()), source=str(path))
+
+
+def _read_extended(path: Path, seen: tuple[Path, ...]) -> Any:
+    """The YAML mapping at ``path``, laid over the robot config its ``extends:`` names (a robot name
+    in ``configs/robots``, or a path relative to this file): a variant (the same robot with hands)
+    states only what differs. Mappings merge key by key; any other value replaces the base's."""
     try:
         raw = yaml.safe_load(path.read_text())
     except (OSError, yaml.YAMLError) as exc:
         raise ConfigError(f"cannot read robot config {path}: {' '.join(str(exc).split())}") from exc
-    return parse_robot_config(raw, source=str(path))
+    if not isinstance(raw, Mapping) or "extends" not in raw:
+        return raw
+    base_name = raw["extends"]
+    if not isinstance(base_name, str):
+        raise ConfigError(f"{path}: field 'extends' must be a robot name or a YAML path, got {base_name!r}")
+    base = Path(base_name)
+    base = (path.parent / base) if base.suffix in (".yaml", ".yml") else CONFIG_DIR / f"{base_name}.yaml"
+    if not base.is_file() or base.resolve() in seen:
+        why = "a cycle" if base.is_file() else "no such config"
+        raise ConfigError(f"{path}: extends {base_name!r}: {why}; available robots: {', '.join(available_robots())}")
+    merged = _merge(_read_extended(base, seen + (path.resolve(),)), raw)
+    merged.pop("extends")
+    return merged
+
+
+def _merge(base: Any, over: Mapping[str, Any]) -> dict:
+    if not isinstance(base, Mapping):
+        raise ConfigError(f"extends: the base config must be a YAML mapping, got {type(base).__name__}")
+    out = dict(base)
+    for key, value in over.items():
+        out[key] = _merge(base[key], value) if isinstance(value, Mapping) and isinstance(base.get(key), Mapping) \
+            else value
+    return out
 
 
 def _field(raw: Mapping[str, Any], key: str, source: str, kind: type | tuple[type, ...] = object) -> Any:
@@ -211,6 +268,8 @@ def parse_robot_config(raw: Mapping[str, Any], source: str = "robot config") -> 
         raise ConfigError(f"{source}: stabilizer must map stabilizer gains to values")
     limits = _field(raw, "limits", source, Mapping)
     sim = _field(raw, "simulation", source, Mapping)
+    drawer = _section(raw, "drawer", ("scale", "dynfilter"), source)
+    drawer_scale = _number(drawer, "scale", f"{source}: drawer", 0.3, 2.0) if "scale" in drawer else 1.0
     return RobotConfig(
         name=_field(raw, "name", source, str),
         package_dir=_field(desc, "package_dir", f"{source}: description", str),
@@ -250,7 +309,57 @@ def parse_robot_config(raw: Mapping[str, Any], source: str = "robot config") -> 
         stabilizer=dict(stabilizer),
         walking_speed=speed,
         gait_swing=_gait_swing(raw.get("gait_swing") or {}, posture, source),
+        grippers=_grippers(raw, source),
+        drawer_scale=drawer_scale,
+        drawer=DrawerGeometry().scaled(drawer_scale),
+        drawer_dynfilter=_filter_mode(drawer.get("dynfilter", FilterMode.FULL.value), source),
+        ik_ranges=_ik_ranges(limits.get("ik_ranges") or {}, posture, source),
     )
+
+
+def _ik_ranges(raw: Any, posture: Mapping[str, Any], source: str) -> Mapping[str, tuple[float, float]]:
+    if not isinstance(raw, Mapping):
+        raise ConfigError(f"{source}: limits.ik_ranges must map joints to [lower, upper] rad")
+    out = {}
+    for joint, span in raw.items():
+        where = f"{source}: limits.ik_ranges.{joint}"
+        if joint not in posture:
+            raise ConfigError(f"{where}: not a joint of half_sitting")
+        if not (isinstance(span, list) and len(span) == 2 and all(isinstance(v, (int, float)) for v in span)
+                and span[0] <= posture[joint] <= span[1]):
+            raise ConfigError(f"{where} must be [lower, upper] rad around its half_sitting angle "
+                              f"{posture[joint]}, got {span!r}")
+        out[joint] = (float(span[0]), float(span[1]))
+    return out
+
+
+def _filter_mode(value: Any, source: str) -> FilterMode:
+    try:
+        return FilterMode("off" if value is False else value)  # YAML reads an unquoted off as false
+    except ValueError:
+        raise ConfigError(f"{source}: drawer.dynfilter {value!r} is not one of "
+                          f"{', '.join(m.value for m in FilterMode)}") from None
+
+
+def _section(raw: Mapping[str, Any], name: str, keys: tuple[str, ...], source: str) -> Mapping[str, Any]:
+    """An optional section of ``keys`` (empty when absent); an unknown key is named."""
+    section = raw.get(name) or {}
+    if not isinstance(section, Mapping):
+        raise ConfigError(f"{source}: {name} must be a mapping of {', '.join(keys)}")
+    unknown = sorted(set(section) - set(keys))
+    if unknown:
+        raise ConfigError(f"{source}: {name}.{unknown[0]} is not a field of {name} ({', '.join(keys)})")
+    return section
+
+
+def _grippers(raw: Mapping[str, Any], source: str) -> Grippers:
+    grasp = _section(raw, "grasp", ("closes_toward", "opening"), source)
+    if not grasp:
+        return DEFAULT_GRIPPERS
+    closes = _field(grasp, "closes_toward", f"{source}: grasp", Mapping)
+    if set(closes) != {"left", "right"} or not set(closes.values()) <= {"upper", "lower"}:
+        raise ConfigError(f"{source}: grasp.closes_toward must map left and right to upper or lower, got {closes!r}")
+    return Grippers(dict(closes), _number(grasp, "opening", f"{source}: grasp", 0.05, 3.0))
 
 
 def _gait_swing(raw: Mapping[str, Any], posture: Mapping[str, Any], source: str) -> tuple[GaitSwing, ...]:

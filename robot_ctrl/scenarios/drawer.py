@@ -25,7 +25,6 @@ from robot_ctrl.eval.report_file import write_report
 from robot_ctrl.eval.walk_log import WalkLog
 from robot_ctrl.eval.walk_recorder import WalkRecorder
 from robot_ctrl.geometry import GRAVITY, base_pose_xy_yaw
-from robot_ctrl.geometry.drawer import DrawerGeometry
 from robot_ctrl.hw.disturbances import Disturbances
 from robot_ctrl.hw.safety import SafetyLayer
 from robot_ctrl.modes import DrawerMethod
@@ -41,11 +40,11 @@ STAND_AFTER = 1.0  # [s] standing after the sequence ended
 def run_drawer(robot: RobotModel, hw: SafetyLayer, primitives: WalkReachPrimitives, task: DrawerTask, *,
                out_dir: Path | None = None, log: Callable[[str], None] = print, progress: bool = False,
                disturbances: Disturbances = Disturbances(), recorders: Sequence = (),
-               geometry: DrawerGeometry = DrawerGeometry(), pacer: Pacer | None = None) -> dict:
+               pacer: Pacer | None = None) -> dict:
     """Run ``task`` on ``hw`` (from ``open_hardware(..., prop=DrawerPlacement(...))``, which placed the cabinet);
     ``recorders`` (a tick log) see every tick; ``pacer`` keeps a real robot's ticks on time (the
     cabinet then stands where the task says, and its drawer is not measured)."""
-    dt = task.control_dt
+    dt, geometry = task.control_dt, robot.config.drawer
     options = WalkingOptions(control_dt=dt, dynfilter=task.dynfilter, dynfilter_worker=True,
                              trunk_weight=TRUNK_POSTURE_FACTOR, balance_with_arms=False)
     naive = task.method is DrawerMethod.NAIVE

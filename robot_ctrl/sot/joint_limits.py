@@ -74,8 +74,11 @@ class JointLimits:
         a_max = share_of_effort(c.acceleration_fraction)
         shares = [f for f in (c.braking_fraction, c.acceleration_fraction) if f is not None]
         a_brake = share_of_effort(min(shares) if shares else None)  # never braking harder than accelerating
-        return cls(robot.q_index, robot.v_index, robot.joint_names, robot.lower, robot.upper,
-                   robot.lower + c.position_margin, robot.upper - c.position_margin,
+        soft_min, soft_max = robot.lower + c.position_margin, robot.upper - c.position_margin
+        for joint, (lo, hi) in c.ik_ranges.items():  # narrower ranges of the config (an arm kept off the torso)
+            i = robot.joint_names.index(joint)
+            soft_min[i], soft_max[i] = max(soft_min[i], lo), min(soft_max[i], hi)
+        return cls(robot.q_index, robot.v_index, robot.joint_names, robot.lower, robot.upper, soft_min, soft_max,
                    robot.velocity_limit * c.velocity_fraction, a_max, a_brake)
 
     def bounds(self, q: np.ndarray, dt: float, previous: np.ndarray | None = None,

@@ -24,7 +24,8 @@ z up), solved by the stack-of-tasks IK with the feet and the CoM held.
 
 Simplifications, stated: the gait scale (lengths x 0.45 and durations x 1.5 of the human's) and
 the comfort distance (the human 0.6 m scaled by the arm-length ratio, plus Talos's longer hand) are
-our choice for Talos;
+our choice for Talos; a robot of another size scales the lengths by its config's ``drawer.scale``
+(G1: 0.7) at the same durations, as it does the cabinet;
 the pelvis starts in steady walking (the thesis's robot sequences also start after a normal step);
 the arm reaches of action 2 are planned in the frame of the pelvis at its final position.
 
@@ -44,10 +45,10 @@ import numpy as np
 import pinocchio as pin
 
 from robot_ctrl import ROOT
-from robot_ctrl.geometry.drawer import SLOTS, DrawerGeometry
+from robot_ctrl.geometry.drawer import SLOTS
 from robot_ctrl.geometry.minimum_jerk import minimum_jerk
 from robot_ctrl.robot.model import RobotModel
-from robot_ctrl.sot.whole_body_ik import TRUNK_POSTURE_FACTOR, WholeBodyIK, chain_dofs, upper_body_dofs
+from robot_ctrl.sot.whole_body_ik import TRUNK_POSTURE_FACTOR, WholeBodyIK, chain_dofs, hand_tool_dofs, upper_body_dofs
 
 FORMAT_VERSION = 2
 PELVIS_CHANNELS = ("vx", "vy", "wz")
@@ -57,14 +58,13 @@ HUMAN_HAND_GRIP = 0.075  # [m] wrist to the centre of the closed palm (Winter: h
 
 
 def upper_body_joints(robot: RobotModel) -> tuple[str, ...]:
-    """The joints the synthesis drives: every joint but the legs' and the grippers (torso, arms and
-    head), in the robot's joint order."""
-    upper = set(upper_body_dofs(robot).tolist())
-    grippers = set(robot.config.joint_roles.get("grippers", {}).values())
-    return tuple(n for n, v in zip(robot.joint_names, robot.v_index) if v in upper and n not in grippers)
+    """The joints the synthesis drives: every joint but the legs' and the hands' (torso, arms and
+    head), in the robot's joint order. The hands' joints (grippers, fingers) are the task's."""
+    upper = set(upper_body_dofs(robot).tolist()) - set(hand_tool_dofs(robot).tolist())
+    return tuple(n for n, v in zip(robot.joint_names, robot.v_index) if v in upper)
 
 
-def comfort_distance(robot: RobotModel, geometry: DrawerGeometry = DrawerGeometry()) -> float:
+def comfort_distance(robot: RobotModel) -> float:
     """Pelvis-to-drawer distance of the last action [m]: the human 0.6 m x robot/human arm length,
     plus how much farther beyond its wrist the robot's hand closes than a person's palm does. The
     robot's arm is shoulder to elbow to wrist (the config's ``joints.shoulders``, ``elbows``,
@@ -75,7 +75,7 @@ def comfort_distance(robot: RobotModel, geometry: DrawerGeometry = DrawerGeometr
     p = [data.oMi[robot.pin.getJointId(roles[role]["left"])].translation for role in ("shoulders", "elbows", "wrists")]
     arm = float(np.linalg.norm(p[1] - p[0]) + np.linalg.norm(p[2] - p[1]))
     gripper = data.oMf[robot.frame_ids["left_hand"]].translation
-    hand = float(np.linalg.norm(gripper - p[2]) + np.linalg.norm(geometry.bar_from_grip))
+    hand = float(np.linalg.norm(gripper - p[2]) + np.linalg.norm(robot.config.drawer.bar_from_grip))
     return HUMAN_COMFORT_DISTANCE * arm / HUMAN_ARM_LENGTH + hand - HUMAN_HAND_GRIP
 
 
@@ -254,12 +254,13 @@ def _pelvis_velocity(tau: float, length: float, duration: float, fade: float) ->
 
 
 def demonstrate(robot: RobotModel, L1: float, L2: float, slot: str, durations: tuple[float, float, float],
-                dt: float = 0.02, geometry: DrawerGeometry = DrawerGeometry()) -> Demonstration:
+                dt: float = 0.02) -> Demonstration:
     """One trial; durations are rounded to whole samples."""
-    comfort = comfort_distance(robot)
+    comfort, geometry = comfort_distance(robot), robot.config.drawer
+    size = robot.config.drawer_scale  # L1, L2 are at the robot's size, the nominal lengths Talos's
     n = [max(int(round(T / dt)), 10) for T in durations]
     trial = _Trial(robot, dt)
-    amp1 = L1 / NOMINAL[1][0]
+    amp1 = L1 / (NOMINAL[1][0] * size)
     trial.start_at(trial.swing_posture(0.0, amp1))  # already walking: no transient from half-sitting
     hands_off = {"left": None, "right": None}
     # Action 1: steady walking, mean speed L1/T1.
@@ -305,8 +306,10 @@ def demonstrate(robot: RobotModel, L1: float, L2: float, slot: str, durations: t
 
 
 def generate_demonstrations(robot: RobotModel, dt: float = 0.02, seed: int = 0) -> DemonstrationSet:
-    """The training grid: every (L1, L2) of ``L1_GRID x L2_GRID`` once, slots in rotation."""
+    """The training grid: every (L1, L2) of ``L1_GRID x L2_GRID`` once, slots in rotation; the lengths
+    times the robot's ``drawer.scale`` (a smaller robot takes shorter steps at the same cadence)."""
     rng = np.random.default_rng(seed)
+    size = robot.config.drawer_scale
     trials = []
     for i, L1 in enumerate(L1_GRID):
         for j, L2 in enumerate(L2_GRID):
@@ -314,7 +317,7 @@ def generate_demonstrations(robot: RobotModel, dt: float = 0.02, seed: int = 0) 
             jitter = rng.uniform(-0.03, 0.03, 3)
             durations = (action_duration(1, L1, jitter[0]), action_duration(2, L2, jitter[1]),
                          STAND_DURATION[slot.split("_")[0]] * (1 + jitter[2]))
-            trials.append(demonstrate(robot, float(L1), float(L2), slot, durations, dt))
+            trials.append(demonstrate(robot, float(L1 * size), float(L2 * size), slot, durations, dt))
     channels = PELVIS_CHANNELS + upper_body_joints(robot)
     return DemonstrationSet(robot.name, channels, dt, comfort_distance(robot), tuple(trials),
                             {"source": "kinematic", "made_by": "synthesis/demonstrations.py: generated pelvis velocity "
