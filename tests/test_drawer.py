@@ -7,6 +7,7 @@ import mujoco
 import numpy as np
 import pytest
 
+from robot_ctrl import ROOT
 from robot_ctrl.cli import main
 from robot_ctrl.eval.feasible_demonstrations import demonstration_from_run, touchdowns
 from robot_ctrl.geometry import GRAVITY
@@ -280,3 +281,14 @@ def test_the_naive_baseline_plays_learned_joint_angles(tmp_path):
     assert max(abs(e) for e in report["step_length_errors_m"][:2]) < 0.03
     assert abs(report["final_pelvis_to_drawer_m"] - report["comfort_distance_m"]) < 0.03
     assert report["drawer_opening_m"] >= report["drawer_opening_required_m"] and report["hand_to_object_m"] < 0.02
+
+
+def test_the_naive_baseline_without_a_recorded_set_says_how_to_record_one(capsys, tmp_path):
+    """G1 ships no set recorded in physics (the naive baseline learns every joint from one): one line
+    naming the command that records it, nothing written."""
+    out = tmp_path / "out"
+    assert main(["drawer", "--robot", "g1_dex3", "--method", "naive", "--quiet", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and not out.exists()
+    assert err.endswith("generate them with: robot-ctrl synth-demos --robot g1_dex3 --from-physics --out "
+                        f"{ROOT / 'models' / 'g1_dex3_walk_reach_feasible.npz'}")

@@ -28,8 +28,9 @@ def load_demonstrations(robot: RobotModel, dataset: Path | None = None, whole_bo
     """The robot's demonstration set (default: the one shipped in ``models/`` for the method)."""
     path = dataset or default_dataset_path(robot.name, whole_body)
     if not path.exists():
+        physics = " --from-physics" if whole_body else ""  # only a set recorded in physics holds the legs
         raise FileNotFoundError(f"no demonstrations at {path}; generate them with: robot-ctrl synth-demos "
-                                f"--robot {robot.name} --out {path}")
+                                f"--robot {robot.name}{physics} --out {path}")
     return DemonstrationSet.load(path)
 
 
