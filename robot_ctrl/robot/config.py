@@ -130,10 +130,14 @@ class RobotConfig:
     # The walk-and-reach task at this robot's size (``drawer.scale``, Talos 1): the cabinet, and the
     # demonstrations' gait lengths (robot_ctrl/synthesis/demonstrations.py)
     drawer_scale: float = 1.0
-    drawer: DrawerGeometry = DrawerGeometry()
     drawer_dynfilter: FilterMode = FilterMode.FULL  # the drawer task's default dynamic filter (``drawer.dynfilter``)
     # joint -> (lower, upper) [rad]: ranges the IK keeps narrower than the URDF's (``limits.ik_ranges``)
     ik_ranges: Mapping[str, tuple[float, float]] = field(default_factory=dict)
+
+    @property
+    def drawer(self) -> DrawerGeometry:
+        """The walk-and-reach task's cabinet at this robot's size."""
+        return DrawerGeometry().scaled(self.drawer_scale)
 
     @property
     def frames(self) -> dict[str, str]:
@@ -311,7 +315,6 @@ def parse_robot_config(raw: Mapping[str, Any], source: str = "robot config") -> 
         gait_swing=_gait_swing(raw.get("gait_swing") or {}, posture, source),
         grippers=_grippers(raw, source),
         drawer_scale=drawer_scale,
-        drawer=DrawerGeometry().scaled(drawer_scale),
         drawer_dynfilter=_filter_mode(drawer.get("dynfilter", FilterMode.FULL.value), source),
         ik_ranges=_ik_ranges(limits.get("ik_ranges") or {}, posture, source),
     )
