@@ -2,6 +2,7 @@
 fault, the pacer's deadlines, and the commands against the emulated MIT-CAN bus."""
 
 import re
+import time
 
 import numpy as np
 import pytest
@@ -97,6 +98,19 @@ def test_the_pacer_keeps_absolute_deadlines_and_counts_overruns():
     assert pacer.overruns == 1 and wakes[4] == pytest.approx(wakes[3] + 0.009)  # late, and starting again from there
     assert wakes[5] == pytest.approx(wakes[4] + 0.005)
     assert pacer.report()["overruns"] == 1 and pacer.report()["ticks"] == 6
+
+
+def test_the_pacer_tells_overruns_off_the_cpu_from_work_that_took_too_long():
+    pacer = Pacer(0.005)
+    pacer.wait()
+    end = time.thread_time() + 0.012
+    while time.thread_time() < end:  # computing past the deadline
+        pass
+    pacer.wait()
+    time.sleep(0.012)  # held off the CPU past the deadline (a host stall, a blocking call)
+    pacer.wait()
+    report = pacer.report()
+    assert report["overruns"] == 2 and report["overruns_off_cpu"] == 1, report
 
 
 def test_bring_up_commands_on_the_emulated_bus(capsys):

@@ -74,12 +74,13 @@ def test_a_walk_on_real_servos_starts_with_the_start_sequence_and_walks_on_the_e
     assert lines[0].startswith("start sequence: held half-sitting")
     assert report["base_state"] == "estimated" and report["base_ground_truth"] is False
     assert report["base_estimate_error"] is None and not report["fell"]
-    # The controller keeps the pace: the median tick starts on time and overruns are rare. A shared
-    # host can still stall the process (a CI machine did, 70 ms of wall time: 2-3 overruns); the watchdog
-    # must then catch it, so each of its trips follows an overrun, never a tick that kept time.
+    # The controller keeps the pace: the median tick starts on time, and a tick overruns by computing
+    # too long at most twice. A shared host can also hold the process off the CPU (a CI machine did, 8
+    # times in one run); the watchdog must then catch it, so each of its trips follows an overrun, never
+    # a tick that kept time nor the end of the run (its report is built with the watchdog disarmed).
     timing, trips = report["timing"], report["safety"]["interventions"].get("watchdog", 0)
     assert timing["ticks"] > 2000 and timing["lateness_ms"]["median"] < 0.5, timing
-    assert timing["overruns"] <= 6 and trips <= timing["overruns"], (timing, trips)
+    assert timing["overruns"] - timing["overruns_off_cpu"] <= 2 and trips <= timing["overruns"], (timing, trips)
     # The start sequence came first, at reduced stiffness (StartParams.gain_scale 0.3), then the walk
     # at the servo gains, but for the walk's soft start, the closing damping and, after each watchdog
     # trip, the damping and the soft start (SafetyLimits.soft_start) the next write resumes with.

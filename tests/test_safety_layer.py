@@ -278,6 +278,23 @@ def test_the_watchdog_is_armed_at_activation(talos, limits):
     assert backend.commands()[-1].kp.max() == 0
 
 
+
+def test_a_run_that_ends_on_purpose_disarms_the_watchdog_until_the_next_write(talos, limits):
+    hw, backend = layer(talos, limits)
+    command = hold(talos, backend.measured.q)
+    hw.write(command)
+    hw.disarm_watchdog()  # the run ended: its report is built while the servos hold the last command
+    for _ in range(10):
+        hw.clock.t += DT
+        backend.measured = dataclasses.replace(backend.measured, t=backend.measured.t + DT)
+        hw.read()
+    assert hw.mode == "normal" and hw.interventions["watchdog"] == 0
+    assert backend.commands()[-1].kp.max() > 0  # nothing but the last command was sent
+    hw.write(command)  # writing again arms it again
+    hw.clock.t += 2.5 * DT
+    hw.read()
+    assert hw.mode == "damping" and hw.interventions["watchdog"] == 1
+
 class Ticker:
     """Drives a layer tick by tick with fresh measurements of a robot standing still at ``q``."""
 

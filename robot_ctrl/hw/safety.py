@@ -195,6 +195,13 @@ class SafetyLayer(HardwareAdapter):
             self._watchdog.join()
             self._watchdog = None
 
+    def disarm_watchdog(self) -> None:
+        """The controller stopped writing on purpose (its run ended): the servos keep its last
+        command, and the write watchdog waits for the next ``write`` (which arms it again) or for
+        ``close``, instead of tripping on a silence that is meant."""
+        with self._lock:
+            self._last_write = None
+
     def _watch(self) -> None:
         while not self._stop_watchdog.wait(self.limits.control_dt):
             try:

@@ -56,6 +56,7 @@ class RobotRun:
         try:
             return loop.run([self.state])
         finally:
+            self.hw.disarm_watchdog()  # the report is built while the servos hold the last command
             bar.close()
 
     def report(self, result: LoopResult, disturbances: Disturbances) -> dict:
