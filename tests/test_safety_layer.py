@@ -208,6 +208,19 @@ def test_a_bad_measurement_sends_damping_and_latches(talos, limits):
         hw.read()
 
 
+
+def test_a_measurement_is_judged_field_by_field_when_the_quick_check_fails(talos):
+    """JointState.problem checks every array at once for a quick answer; a NaN in a body reading, an
+    infinite time, another dtype or shape go to the field-by-field check, which names what is wrong."""
+    nj, zero = talos.nj, np.zeros(talos.nj)
+    assert JointState(t=0.0, q=np.full(nj, 1e308), dq=zero, tau=zero).problem(nj) is None
+    wrench = {"left": np.array([0.0, 0.0, 400.0, 0.0, np.nan, 0.0]), "right": np.zeros(6)}
+    state = JointState(t=0.0, q=zero, dq=zero, tau=zero, base_pos=np.zeros(3), foot_wrench=wrench)
+    assert state.problem(nj) == "JointState.foot_wrench['left'] is not finite at [4]"
+    assert JointState(t=np.inf, q=zero, dq=zero, tau=zero).problem(nj) == "JointState.t is not finite at [0]"
+    assert JointState(t=0.0, q=zero.astype(np.float32), dq=zero, tau=zero).problem(nj) is None
+    assert "q has shape (3,)" in JointState(t=0.0, q=np.zeros(3), dq=zero, tau=zero).problem(nj)
+
 @pytest.mark.realtime
 def test_estop_does_not_wait_for_a_write_in_flight(talos, limits):
     hw, backend = layer(talos, limits, clock=time.monotonic)

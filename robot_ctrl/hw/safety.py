@@ -94,6 +94,10 @@ INTERVENTIONS = ("estop", "bad_measurement", "backend_fault", "watchdog", "stale
                  "position_step_limited", "velocity_clamped", "torque_clamped")
 
 
+#: A command whose torque at the measured state is this far (relative) inside the effort needs no bound.
+WITHIN_EFFORT_MARGIN = 1e-9
+
+
 class SafetyLayer(HardwareAdapter):
     def __init__(self, backend: HardwareAdapter, limits: SafetyLimits,
                  clock: Callable[[], float] | None = time.monotonic):
@@ -388,29 +392,37 @@ class SafetyLayer(HardwareAdapter):
             self._state = S.FAULT
 
     def _filter(self, cmd: JointCommand) -> JointCommand:
+        # Every control tick passes here: ufuncs rather than np.clip / np.any (their Python wrappers
+        # cost more than the work on a few dozen joints). The command was validated finite.
         lim, state = self.limits, self._last_good
         demand = servo_torque(cmd.q, cmd.dq, cmd.kp, cmd.kd, cmd.tau_ff, state.q, state.dq)
         np.maximum(self.demanded_peak, np.abs(demand), out=self.demanded_peak)
         kp, kd = np.minimum(cmd.kp, lim.kp_max), np.minimum(cmd.kd, lim.kd_max)
-        if np.any(kp != cmd.kp) or np.any(kd != cmd.kd):
+        if (kp != cmd.kp).any() or (kd != cmd.kd).any():
             self._intervene("gain_clamped", f"joints {np.flatnonzero((kp != cmd.kp) | (kd != cmd.kd)).tolist()}")
-        q = np.clip(cmd.q, lim.lower, lim.upper)
-        if np.any(q != cmd.q):
+        q = np.minimum(np.maximum(cmd.q, lim.lower), lim.upper)
+        if (q != cmd.q).any():
             self._intervene("position_clamped", f"joints {np.flatnonzero(q != cmd.q).tolist()}")
         # From the last target as the controller's motion left it, not as the torque bound moved it
         # towards the measured posture for one tick: the bound is no motion to limit.
         reference = self._last_target if self._last_target is not None else state.q
         step = lim.step_limit
-        stepped = reference + np.clip(q - reference, -step, step)
-        if np.any(stepped != q):
+        stepped = reference + np.minimum(np.maximum(q - reference, -step), step)
+        if (stepped != q).any():
             self._intervene("position_step_limited", f"joints {np.flatnonzero(stepped != q).tolist()}")
-        q = self._last_target = np.clip(stepped, lim.lower, lim.upper)
-        dq = np.clip(cmd.dq, -lim.velocity, lim.velocity)
-        if np.any(dq != cmd.dq):
+        q = self._last_target = np.minimum(np.maximum(stepped, lim.lower), lim.upper)
+        dq = np.minimum(np.maximum(cmd.dq, -lim.velocity), lim.velocity)
+        if (dq != cmd.dq).any():
             self._intervene("velocity_clamped", f"joints {np.flatnonzero(dq != cmd.dq).tolist()}")
         ramp = min(1.0, (self._ticks + 1) * lim.control_dt / lim.soft_start) if lim.soft_start > 0 else 1.0
         self._ticks += 1
-        return self._bounded(JointCommand(q=q, dq=dq, kp=kp * ramp * self._derate, kd=kd, tau_ff=cmd.tau_ff * ramp))
+        kp, tau_ff = kp * ramp * self._derate, cmd.tau_ff * ramp
+        effort = lim.effort * self._derate * (1.0 - WITHIN_EFFORT_MARGIN)
+        torque = servo_torque(q, dq, kp, kd, tau_ff, state.q, state.dq)
+        if (np.abs(torque) <= effort).all() and (np.abs(tau_ff) <= effort).all():
+            # Within the effort with a margin far above rounding: _bounded would return it unchanged.
+            return JointCommand(q=q, dq=dq, kp=kp, kd=kd, tau_ff=tau_ff)
+        return self._bounded(JointCommand(q=q, dq=dq, kp=kp, kd=kd, tau_ff=tau_ff))
 
     def _bounded(self, cmd: JointCommand) -> JointCommand:
         """``cmd`` with its torque at the last good measured state within ± the (derated) effort."""
