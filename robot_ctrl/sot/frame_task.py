@@ -26,15 +26,23 @@ class FrameTask(Task):
         self.target = pin.SE3.Identity()
         self.target_velocity = np.zeros(6)  # [linear (m/s), angular (rad/s)] in the world frame
 
+    @property
+    def target(self) -> pin.SE3:
+        return self._target
+
+    @target.setter
+    def target(self, pose: pin.SE3) -> None:
+        # Its translation and rotation read once: each read of an SE3's member is a copy.
+        self._target, self._target_translation, self._target_rotation = pose, pose.translation, pose.rotation
+
     def set_target(self, pose: pin.SE3, velocity: np.ndarray | None = None) -> None:
         self.target = pose
         self.target_velocity = np.zeros(6) if velocity is None else np.asarray(velocity, dtype=float)
 
     def error_and_jacobian(self, model, data, q):
         current = data.oMf[self.frame_id]
-        e = np.empty(6)
-        e[:3] = self.target.translation - current.translation
-        e[3:] = pin.log3(self.target.rotation @ current.rotation.T)
+        e = np.concatenate((self._target_translation - current.translation,
+                            pin.log3(self._target_rotation @ current.rotation.T)))
         J = pin.getFrameJacobian(model, data, self.frame_id, pin.LOCAL_WORLD_ALIGNED)
         if self._all_rows:
             return e, J

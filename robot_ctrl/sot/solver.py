@@ -56,7 +56,7 @@ BOUND_SLACK = 1e-10  # [rad/s] relaxation of the bounds inside each QP (see solv
 EXACT_TOL = 1e-9  # relative residual of the higher levels that the fast path must reach
 
 _geqp3, _orgqr, _posv, _trtrs = lapack.dgeqp3, lapack.dorgqr, lapack.dposv, lapack.dtrtrs
-_getrf, _getrs = lapack.dgetrf, lapack.dgetrs
+_gesv, _getrs = lapack.dgesv, lapack.dgetrs
 
 
 class InfeasibleError(RuntimeError):
@@ -233,9 +233,6 @@ class HierarchicalQP:
         K.flat[: n * (n + m + 1) : n + m + 1] += self.mu  # μ on G's diagonal
         K[:n, n:] = E.T
         K[n:, :n] = E
-        lu, piv, info = _getrf(K)
-        if info != 0:
-            return None
         blocks = {}  # task -> its rows in f
         for task in retargetable:
             k, rows = spans.get(task, (len(stacked) - 1, None))
@@ -251,7 +248,7 @@ class HierarchicalQP:
                 rhs[n + row, column + row - at.start] = 1.0
             Z[task] = (at, slice(column, column + at.stop - at.start))
             column = Z[task][1].stop
-        x, info = _getrs(lu, piv, rhs)
+        lu, piv, x, info = _gesv(K, rhs, overwrite_a=1, overwrite_b=1)  # factorized and solved in one call
         if info != 0:
             return None
         return _FastPath(E, f, x[:n, 0], {task: (at, x[:n, cols]) for task, (at, cols) in Z.items()}, (lu, piv))
