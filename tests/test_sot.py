@@ -170,6 +170,56 @@ def test_fast_path_gives_the_level_by_level_solution(talos, tasks, monkeypatch):
     np.testing.assert_allclose(fast, by_level, atol=1e-8)
 
 
+
+def test_a_higher_level_is_met_exactly_when_its_minimum_norm_step_breaks_a_bound(talos, tasks):
+    """The torso joints nearly held (velocity bound 1e-4 rad/s): the CoM's minimum-norm step, which
+    bends the torso too, breaks their bound, yet the legs alone can move the CoM. The balance level
+    is met exactly, not as a regularized least-squares (which left it 1e-4 short)."""
+    feet, com, _, posture = tasks
+    data = talos.pin.createData()
+    q = perturbed_half_sitting(talos, np.random.default_rng(4))
+    pin.framesForwardKinematics(talos.pin, data, q)
+    for f in feet:
+        f.set_target(data.oMf[f.frame_id].copy())
+    com.set_target(pin.centerOfMass(talos.pin, data, q) + [0.004, 0.002, 0.0])
+    posture.set_target(q[talos.q_index])
+    limits = JointLimits.from_robot(talos)
+    torso = np.isin(talos.v_index, [talos.pin.joints[talos.pin.getJointId(n)].idx_v
+                                    for n in ("torso_1_joint", "torso_2_joint")])
+    limits = dataclasses.replace(limits, v_max=np.where(torso, 1e-4, limits.v_max))
+    solver = HierarchicalQP([feet, [com], [posture]], limits)
+    solver._fast_path = lambda *args, **kwargs: None  # the level-by-level solve itself
+    v = solver.solve(talos.pin, data, q, DT)
+    A, b = com.rows(talos.pin, data, q)
+    assert np.linalg.norm(b) > 0.1  # the CoM really moves
+    assert np.linalg.norm(A @ v - b) < 1e-8 * np.linalg.norm(b)
+    assert np.all(np.abs(v[talos.v_index][torso]) <= 1e-4 + 1e-12)
+
+
+def test_fast_path_with_bounds_held_active_gives_the_level_by_level_solution(talos, tasks, monkeypatch):
+    """A posture target far beyond what the joints' velocity bounds allow in one step: the last
+    level's solution lies on many bounds. From the second tick the fast path holds the bounds the
+    last solution lay on as equalities (checked by its multipliers' signs) and gives the level-by-level
+    solution, where it used to fall back to it."""
+    feet, com, _, posture = tasks
+    data = talos.pin.createData()
+    rng = np.random.default_rng(5)
+    q = perturbed_half_sitting(talos, rng)
+    pin.framesForwardKinematics(talos.pin, data, q)
+    for f in feet:
+        f.set_target(data.oMf[f.frame_id].copy())
+    com.set_target(pin.centerOfMass(talos.pin, data, q) + [0.002, -0.001, 0.0])
+    posture.set_target(q[talos.q_index] + rng.choice([-1.0, 1.0], talos.nj))
+    solver = HierarchicalQP([feet, [com], [posture]], JointLimits.from_robot(talos))
+    first = solver.solve(talos.pin, data, q, DT)
+    active, _ = solver._active
+    assert active.size >= 10  # many joints on a bound
+    level_by_level = []
+    monkeypatch.setattr(solver, "_solve_level", lambda *args: level_by_level.append(1))
+    fast = solver.solve(talos.pin, data, q, DT)
+    assert not level_by_level  # the fast path gave it
+    np.testing.assert_allclose(fast, first, atol=1e-8)
+
 def test_prepared_solve_with_a_moved_target_equals_a_fresh_solve(talos, tasks):
     """prepare, move the CoM target, finish naming it: the solve that had the final target from the start
     (whether prepare was told the CoM would move or not, and for a task of the last level)."""

@@ -1,4 +1,4 @@
-"""HierarchicalQP: strict-priority stack of tasks, one quadprog QP per level.
+"""HierarchicalQP: strict-priority stack of tasks, one KKT system or one quadprog QP per level.
 
 Level k solves, over the velocity ``v`` (Pinocchio tangent space, nv)::
 
@@ -12,22 +12,30 @@ the null space of the stacked higher-level matrices and ``v*`` the previous leve
 ``z = 0`` is feasible by construction, and the problems shrink as the stack descends. A
 rank-revealing (column-pivoted) QR of the small projected matrix ``(A_k N)ᵀ`` gives both the
 level's exact minimum-norm solution (when ``A_k N`` has full row rank) and the next ``N``. When
-that solution breaks a bound, or the level is rank-deficient, or it is the last level, the level
-is the QP with the regularization μ (which keeps its Hessian positive definite); quadprog is
-skipped when the QP's unconstrained minimizer (a Cholesky solve) already meets every bound. The
-returned ``v`` is clipped to the bounds, so limits hold exactly and higher levels hold to solver
-tolerance.
+that solution breaks a bound, the level is met exactly by the smallest step within the bounds
+that does (a QP with the level as equalities), if there is one. When there is none, or the level
+is rank-deficient, or it is the last level, the level is the least-squares QP with the
+regularization μ (which keeps its Hessian positive definite); quadprog is skipped when the QP's
+unconstrained minimizer (a Cholesky solve) already meets every bound. The returned ``v`` is
+clipped to the bounds, so limits hold exactly and higher levels hold to solver tolerance.
 
 Fast path, tried first: when every level but the last can be met exactly within the bounds (the
 usual case: feet and balance tasks are reachable), the hierarchy's solution is the minimizer of
-the last level on ``{v : E v = f}`` (E, f the stacked higher levels), one KKT system::
+the last level on ``{v : E v = f, lo ≤ v ≤ hi}`` (E, f the stacked higher levels). With the set
+``B`` of the bounds it lies on known, that is one KKT system, ``S_B`` selecting those dofs and
+``β`` their bounds::
 
-    [G  Eᵀ] [ v]   [a]
-    [E  0 ] [−λ] = [f],    G = A_Lᵀ A_L + μ I,  a = A_Lᵀ b_L
+    [G    Eᵀ  S_Bᵀ] [ v]   [a]
+    [E    0   0   ] [−λ] = [f],    G = A_Lᵀ A_L + μ I,  a = A_Lᵀ b_L
+    [S_B  0   0   ] [−ν]   [β]
 
-It is accepted when it meets the higher levels (relative residual ≤ ``EXACT_TOL``) and the bounds;
-otherwise (a higher level out of reach, singular, or held back by a bound) the levels are solved
-one by one as above. Both give the same solution where both apply.
+``B`` is guessed as the bounds the last solution lay on (a reaching arm stays on its bounds for
+many ticks), and the solution accepted when it is the optimum: the other bounds met, each ``ν_j``
+of the sign that holds its joint against its bound (the QP's KKT conditions), the higher levels
+met (relative residual ≤ ``EXACT_TOL``). Otherwise a few primal-dual active-set steps (drop the
+bounds of the wrong sign, add the ones broken, solve again) are tried; failing those (a higher
+level out of reach, a singular system) the levels are solved one by one as above. Both give the
+same solution where both apply.
 
 A solve is :meth:`~HierarchicalQP.prepare` (bounds, kinematics, every task's rows, the KKT matrix
 factorized: all that depends on ``q``) then :meth:`~HierarchicalQP.finish`, which may first
@@ -36,7 +44,8 @@ while the robot moves and finishes once the measured state has given it its last
 that, prepare also solves the KKT system for the prepared targets and, for the higher-level tasks
 named ``retargetable``, for a unit change of each of their rows: ``v = v₀ + Z δf``, so a finish
 whose new targets only change those rows of ``f`` by ``δf`` costs a small product instead of a
-solve (equal to the direct solve up to rounding).
+solve (equal to the direct solve up to rounding); the same for the active bounds' values ``β``,
+which bounds known only at finish (``tighter``) may change.
 """
 
 from __future__ import annotations
@@ -54,6 +63,9 @@ from robot_ctrl.sot.task import Task
 
 BOUND_SLACK = 1e-10  # [rad/s] relaxation of the bounds inside each QP (see solve)
 EXACT_TOL = 1e-9  # relative residual of the higher levels that the fast path must reach
+ACTIVE_TOL = 1e-9  # [rad/s] a solution this close to a bound lies on it (the next tick's guess)
+DUAL_TOL = 1e-10  # a multiplier of the wrong sign beyond this rejects an active set
+ACTIVE_SET_STEPS = 3  # changes of the active set tried at finish before the level-by-level solve
 
 _geqp3, _orgqr, _posv, _trtrs = lapack.dgeqp3, lapack.dorgqr, lapack.dposv, lapack.dtrtrs
 _gesv, _getrs = lapack.dgesv, lapack.dgetrs
@@ -99,14 +111,23 @@ class _Prepared:
 
 @dataclass
 class _FastPath:
-    """The fast path's KKT system solved at prepare: ``v = v0 + Z[task] δf`` for a change ``δf`` of
-    a retargetable task's rows of the stacked higher levels' right-hand side ``f``."""
+    """The fast path's KKT system solved at prepare, with the bounds held active (``active``, indices
+    into the limits' dofs, at their upper bound where ``upper``) as equalities ``v_j = β_j``. Its
+    unknowns kept, ``w = [v; y]``: the velocity and, per active bound, minus its multiplier. For a
+    change ``δf`` of a retargetable task's rows of ``f``, ``w = w0 + Z[task] δf``; for a change
+    ``δβ`` of the active bounds' values (bounds tightened at finish), ``w += Zb δβ``."""
 
     E: np.ndarray  # (m, nv) stacked higher levels
     f: np.ndarray  # (m,)
-    v0: np.ndarray  # (nv,)
-    Z: dict[Task, tuple[slice, np.ndarray]]  # the task's rows in f, and their (nv, rows) block
-    lu: tuple[np.ndarray, np.ndarray]  # LU factors and pivots of the KKT matrix
+    K: np.ndarray  # (nv + m, nv + m) the KKT matrix without bound rows, for another active set
+    active: np.ndarray
+    upper: np.ndarray
+    beta: np.ndarray  # the active bounds' values at prepare
+    keep: np.ndarray  # the rows of the KKT solution that make w
+    w0: np.ndarray  # (nv + len(active),)
+    Z: dict[Task, tuple[slice, np.ndarray]]  # the task's rows in f, and their (len(w), rows) block
+    Zb: np.ndarray  # (len(w), len(active))
+    lu: tuple[np.ndarray, np.ndarray]  # LU factors and pivots of the KKT matrix with the bound rows
 
 
 class HierarchicalQP:
@@ -118,6 +139,9 @@ class HierarchicalQP:
         self.rank_tol = rank_tol
         self.last: list[LevelResult] = []
         self._prepared: _Prepared | None = None
+        # The bounds the last solution lay on (indices into the limits' dofs, upper side): the fast
+        # path's first guess of the active set, which moves little from one tick to the next.
+        self._active = (np.zeros(0, dtype=int), np.zeros(0, dtype=bool))
 
     def solve(self, model: pin.Model, data: pin.Data, q: np.ndarray, dt: float,
               previous: np.ndarray | None = None) -> np.ndarray:
@@ -151,7 +175,7 @@ class HierarchicalQP:
                 start += len(b)
             stacked.append(_stack(rows))
         self.last = [LevelResult([t.name for t in tasks], False, A, b) for tasks, (A, b) in zip(levels, stacked)]
-        fast = self._fast_path(stacked, spans, retargetable)
+        fast = self._fast_path(stacked, spans, retargetable, lo, hi)
         self._prepared = _Prepared(model, data, q, lo, hi, levels, stacked, spans, fast)
 
     def finish(self, retargeted: tuple[Task, ...] = (),
@@ -165,7 +189,7 @@ class HierarchicalQP:
             raise RuntimeError("HierarchicalQP.finish without prepare")
         stacked = list(p.stacked)
         fast = p.fast
-        v = None if fast is None else fast.v0
+        w = None if fast is None else fast.w0
         f = None if fast is None else fast.f
         for task in retargeted:
             if task not in p.spans:
@@ -173,26 +197,32 @@ class HierarchicalQP:
             k, rows = p.spans[task]
             b = stacked[k][1].copy()
             b[rows] = task.rhs(p.model, p.data, p.q)
-            if v is not None:
+            if w is not None:
                 if task in fast.Z:
                     at, Z = fast.Z[task]
-                    v = v + Z @ (b[rows] - stacked[k][1][rows])
+                    w = w + Z @ (b[rows] - stacked[k][1][rows])
                     f = f.copy()
                     f[at] = b[rows]
                 else:
-                    v = None  # not prepared for: solve the KKT system again
+                    w = None  # not prepared for: solve the KKT system again
             stacked[k] = (stacked[k][0], b)
             self.last[k].b = b
         lo, hi, bounded = p.lo, p.hi, self.limits.v_index
         if tighter is not None:
             lo, hi = np.clip(np.maximum(lo, tighter[0]), lo, hi), np.clip(np.minimum(hi, tighter[1]), lo, hi)
         if fast is not None:
-            if v is None:
+            beta = np.where(fast.upper, hi[fast.active], lo[fast.active])
+            A, b = stacked[-1]
+            if w is None:
                 f = np.concatenate([b for _, b in stacked[:-1]])
-                A, b = stacked[-1]
-                v = _getrs(*fast.lu, np.concatenate([A.T @ b, f]))[0][: A.shape[1]]
-            if self._meets_higher_levels(v, fast.E, f, lo, hi, bounded):
-                return v
+                w = _getrs(*fast.lu, np.concatenate([A.T @ b, f, beta]))[0][fast.keep]
+            elif fast.active.size:
+                w = w + fast.Zb @ (beta - fast.beta)
+            v = self._accepted(w, fast.active, fast.upper, beta, fast.E, f, lo, hi)
+            if v is None:
+                v = self._change_active_set(w, fast, A.T @ b, f, lo, hi)
+            if v is not None:
+                return self._remember_active(v, lo, hi)
         v = np.zeros(p.model.nv)
         N = None  # basis of the directions the higher levels leave free; None = identity
         for k, (tasks, (A, b)) in enumerate(zip(p.levels, stacked)):
@@ -204,7 +234,8 @@ class HierarchicalQP:
                 qr = _PivotedQR(AN, self.rank_tol)
                 z = qr.min_norm_solution(r)
                 if z is not None and not _meets_bounds(v[bounded], z, N, bounded, lo, hi):
-                    z = None
+                    z = self._exact_level(AN, r, N, v, lo, hi, bounded)
+                    self.last[k].used_qp = z is not None
             if z is None:
                 G = AN.T @ AN
                 G.flat[:: G.shape[0] + 1] += self.mu
@@ -216,12 +247,63 @@ class HierarchicalQP:
                 if N.shape[1] == 0:
                     break
         v[bounded] = np.clip(v[bounded], lo, hi)
+        return self._remember_active(v, lo, hi)
+
+    def _remember_active(self, v: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        vb = v[self.limits.v_index]
+        at_hi = vb >= hi - ACTIVE_TOL
+        active = np.flatnonzero(at_hi | (vb <= lo + ACTIVE_TOL))
+        self._active = (active, at_hi[active])
         return v
 
-    def _fast_path(self, stacked, spans, retargetable) -> _FastPath | None:
-        """The fast path's KKT matrix (module docstring) factorized and solved for the prepared
-        targets and for unit changes of the ``retargetable`` tasks' rows of ``f``; None when the
-        stack has one level or the matrix is singular."""
+    def _accepted(self, w, active, upper, beta, E, f, lo, hi) -> np.ndarray | None:
+        """The velocity of the KKT solution ``w``, if it is the hierarchy's: the active bounds'
+        multipliers of the right sign, the other bounds met, the higher levels met exactly."""
+        n = w.size - active.size
+        v = w[:n]
+        if active.size:
+            y = w[n:]  # minus the multipliers: ≥ 0 at an upper bound, ≤ 0 at a lower one
+            if ((y < -DUAL_TOL) & upper).any() or ((y > DUAL_TOL) & ~upper).any():
+                return None
+            v = v.copy()
+            v[self.limits.v_index[active]] = beta  # on the bound, not a rounding beyond it
+        return v if self._meets_higher_levels(v, E, f, lo, hi, self.limits.v_index) else None
+
+    def _change_active_set(self, w, fast: _FastPath, a, f, lo, hi) -> np.ndarray | None:
+        """Primal-dual active-set steps from the prepared guess: drop the bounds whose multiplier
+        has the wrong sign, add those the solution breaks, solve again; None after
+        ``ACTIVE_SET_STEPS`` steps or on a singular system (the levels are then solved one by one)."""
+        bounded, active, upper = self.limits.v_index, fast.active, fast.upper
+        n = fast.K.shape[0] - fast.E.shape[0]
+        for _ in range(ACTIVE_SET_STEPS):
+            y = w[n:]
+            stays = ~(((y < -DUAL_TOL) & upper) | ((y > DUAL_TOL) & ~upper))
+            vb = w[:n][bounded]
+            free = np.ones(bounded.size, dtype=bool)
+            free[active] = False
+            over, under = free & (vb > hi), free & (vb < lo)
+            if stays.all() and not (over.any() or under.any()):
+                return None
+            added = np.flatnonzero(over | under)
+            active = np.concatenate([active[stays], added])
+            upper = np.concatenate([upper[stays], over[added]])
+            beta = np.where(upper, hi[active], lo[active])
+            M = _with_bound_rows(fast.K, bounded[active])
+            _, _, x, info = _gesv(M, np.concatenate([a, f, beta]), overwrite_a=1, overwrite_b=1)
+            if info != 0:
+                return None
+            w = np.concatenate([x[:n], x[fast.K.shape[0]:]])
+            v = self._accepted(w, active, upper, beta, fast.E, f, lo, hi)
+            if v is not None:
+                return v
+        return None
+
+    def _fast_path(self, stacked, spans, retargetable, lo, hi, guess: bool = True) -> _FastPath | None:
+        """The fast path's KKT matrix (module docstring), with the last solution's active bounds as
+        equalities, factorized and solved for the prepared targets, for unit changes of the
+        ``retargetable`` tasks' rows of ``f`` and of the active bounds' values (without them if that
+        ``guess`` makes the matrix singular); None when the stack has one level or the matrix is
+        singular."""
         if len(stacked) < 2:
             return None
         E = np.vstack([A for A, _ in stacked[:-1]])
@@ -233,25 +315,34 @@ class HierarchicalQP:
         K.flat[: n * (n + m + 1) : n + m + 1] += self.mu  # μ on G's diagonal
         K[:n, n:] = E.T
         K[n:, :n] = E
+        active, upper = self._active if guess else (np.zeros(0, dtype=int), np.zeros(0, dtype=bool))
+        nb = active.size
+        beta = np.where(upper, hi[active], lo[active])
         blocks = {}  # task -> its rows in f
         for task in retargetable:
             k, rows = spans.get(task, (len(stacked) - 1, None))
             if k < len(stacked) - 1:
                 start = sum(len(b) for _, b in stacked[:k])
                 blocks[task] = slice(start + rows.start, start + rows.stop)
-        rhs = np.zeros((n + m, 1 + sum(at.stop - at.start for at in blocks.values())))
+        rhs = np.zeros((n + m + nb, 1 + sum(at.stop - at.start for at in blocks.values()) + nb))
         rhs[:n, 0] = A.T @ b
-        rhs[n:, 0] = f
+        rhs[n:n + m, 0] = f
+        rhs[n + m:, 0] = beta
         column, Z = 1, {}
         for task, at in blocks.items():
             for row in range(at.start, at.stop):
                 rhs[n + row, column + row - at.start] = 1.0
             Z[task] = (at, slice(column, column + at.stop - at.start))
             column = Z[task][1].stop
-        lu, piv, x, info = _gesv(K, rhs, overwrite_a=1, overwrite_b=1)  # factorized and solved in one call
-        if info != 0:
-            return None
-        return _FastPath(E, f, x[:n, 0], {task: (at, x[:n, cols]) for task, (at, cols) in Z.items()}, (lu, piv))
+        rhs[n + m + np.arange(nb), column + np.arange(nb)] = 1.0
+        # Factorized and solved in one call; K itself is kept for another active set at finish.
+        lu, piv, x, info = _gesv(_with_bound_rows(K, self.limits.v_index[active]), rhs, overwrite_a=1, overwrite_b=1)
+        if info != 0:  # singular: with the guessed bounds, or without any
+            return self._fast_path(stacked, spans, retargetable, lo, hi, guess=False) if nb else None
+        keep = np.r_[0:n, n + m:n + m + nb]
+        x = x[keep]
+        return _FastPath(E, f, K, active, upper, beta, keep, x[:, 0],
+                         {task: (at, x[:, cols]) for task, (at, cols) in Z.items()}, x[:, column:], (lu, piv))
 
     @staticmethod
     def _meets_higher_levels(v, E, f, lo, hi, bounded) -> bool:
@@ -261,6 +352,24 @@ class HierarchicalQP:
             return False
         r = E @ v - f
         return math.sqrt(r @ r) <= EXACT_TOL * (1.0 + math.sqrt(f @ f))
+
+    @staticmethod
+    def _exact_level(AN, r, N, v, lo, hi, bounded) -> np.ndarray | None:
+        """A level met exactly within the bounds when its minimum-norm step breaks one: the
+        smallest ``v + N z`` with ``A N z = r`` and the bounds (a QP with equalities); None when
+        no step within the bounds meets it (the level is then solved as a least-squares QP)."""
+        nz = AN.shape[1]
+        Nb = np.eye(nz)[bounded] if N is None else N[bounded]
+        vb = v[bounded]
+        free = np.einsum("ij,ij->i", Nb, Nb) > 1e-20  # as in _solve_level
+        Nb, vb = Nb[free], vb[free]
+        C = np.hstack([AN.T, Nb.T, -Nb.T])
+        c = np.concatenate([r, np.minimum(np.concatenate([lo[free] - vb, vb - hi[free]]), 0.0) - BOUND_SLACK])
+        a = -(v if N is None else N.T @ v)
+        try:
+            return quadprog.solve_qp(np.eye(nz), a, C, c, AN.shape[0])[0]
+        except ValueError:
+            return None
 
     def _solve_level(self, k, tasks, G, a, N, vb, lo, hi, bounded) -> tuple[np.ndarray, bool]:
         _, z, info = _posv(G, a)
@@ -281,6 +390,16 @@ class HierarchicalQP:
         except ValueError as exc:
             raise InfeasibleError(k, f"{exc} (tasks {[t.name for t in tasks]})") from exc
         return z, True
+
+
+def _with_bound_rows(K: np.ndarray, dofs: np.ndarray) -> np.ndarray:
+    """A new KKT matrix: ``K`` bordered by the equalities ``v_j = β_j`` for the velocity indices ``dofs``."""
+    s, nb = K.shape[0], dofs.size
+    M = np.zeros((s + nb, s + nb))
+    M[:s, :s] = K
+    M[s + np.arange(nb), dofs] = 1.0
+    M[dofs, s + np.arange(nb)] = 1.0
+    return M
 
 
 def _meets_bounds(vb, z, N, bounded, lo, hi, slack: float = 0.0) -> bool:
