@@ -58,6 +58,7 @@ class AttitudeFilter:
         self._attitude: np.ndarray | None = None  # the estimate (world from base)
         self._turned = np.eye(3)  # the gyro's rotation since the first reading (start base from base)
         self._start_position: np.ndarray | None = None  # the base position of the first reading [m]
+        self._start_pose: np.ndarray | None = None  # start_pose since the last reading (asked for many times a tick)
 
     @property
     def start_attitude(self) -> np.ndarray | None:
@@ -67,16 +68,20 @@ class AttitudeFilter:
     @property
     def start_pose(self) -> np.ndarray | None:
         """World (x, y, yaw) of the base at the first reading, its yaw from ``start_attitude``."""
-        attitude = self.start_attitude
-        if attitude is None or self._start_position is None:
-            return None
-        return np.array([*self._start_position[:2], yaw_of(attitude)])
+        if self._start_pose is None:
+            attitude = self.start_attitude
+            if attitude is None or self._start_position is None:
+                return None
+            self._start_pose = np.array([*self._start_position[:2], yaw_of(attitude)])
+            self._start_pose.flags.writeable = False  # shared by every caller until the next reading
+        return self._start_pose
 
     def update(self, state: JointState) -> JointState:
         """``state`` with its base orientation replaced by the filtered estimate."""
         if state.base_quat_xyzw is None:
             return state
         reading = _matrix(state.base_quat_xyzw)
+        self._start_pose = None
         dt = 0.0 if self._t is None else state.t - self._t
         self._t = state.t
         if self._attitude is None or state.base_angvel is None or not 0.0 < dt <= RESTART_GAP:

@@ -123,7 +123,7 @@ class _FastPath:
     active: np.ndarray
     upper: np.ndarray
     beta: np.ndarray  # the active bounds' values at prepare
-    keep: np.ndarray  # the rows of the KKT solution that make w
+    keep: slice | np.ndarray  # the rows of the KKT solution that make w
     w0: np.ndarray  # (nv + len(active),)
     Z: dict[Task, tuple[slice, np.ndarray]]  # the task's rows in f, and their (len(w), rows) block
     Zb: np.ndarray  # (len(w), len(active))
@@ -222,7 +222,7 @@ class HierarchicalQP:
             if v is None:
                 v = self._change_active_set(w, fast, A.T @ b, f, lo, hi)
             if v is not None:
-                return self._remember_active(v, lo, hi)
+                return v
         v = np.zeros(p.model.nv)
         N = None  # basis of the directions the higher levels leave free; None = identity
         for k, (tasks, (A, b)) in enumerate(zip(p.levels, stacked)):
@@ -250,6 +250,7 @@ class HierarchicalQP:
         return self._remember_active(v, lo, hi)
 
     def _remember_active(self, v: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        """``v`` of the level-by-level solve, the bounds it lies on remembered as the fast path's guess."""
         vb = v[self.limits.v_index]
         at_hi = vb >= hi - ACTIVE_TOL
         active = np.flatnonzero(at_hi | (vb <= lo + ACTIVE_TOL))
@@ -258,16 +259,20 @@ class HierarchicalQP:
 
     def _accepted(self, w, active, upper, beta, E, f, lo, hi) -> np.ndarray | None:
         """The velocity of the KKT solution ``w``, if it is the hierarchy's: the active bounds'
-        multipliers of the right sign, the other bounds met, the higher levels met exactly."""
+        multipliers of the right sign, the other bounds met, the higher levels met exactly. Then
+        the bounds that bind (a multiplier beyond ``DUAL_TOL``) are the next tick's guess."""
         n = w.size - active.size
-        v = w[:n]
+        v, y = w[:n], w[n:]  # y: minus the multipliers, ≥ 0 at an upper bound, ≤ 0 at a lower one
         if active.size:
-            y = w[n:]  # minus the multipliers: ≥ 0 at an upper bound, ≤ 0 at a lower one
             if ((y < -DUAL_TOL) & upper).any() or ((y > DUAL_TOL) & ~upper).any():
                 return None
             v = v.copy()
             v[self.limits.v_index[active]] = beta  # on the bound, not a rounding beyond it
-        return v if self._meets_higher_levels(v, E, f, lo, hi, self.limits.v_index) else None
+        if not self._meets_higher_levels(v, E, f, lo, hi, self.limits.v_index):
+            return None
+        binding = np.abs(y) > DUAL_TOL
+        self._active = (active[binding], upper[binding])
+        return v
 
     def _change_active_set(self, w, fast: _FastPath, a, f, lo, hi) -> np.ndarray | None:
         """Primal-dual active-set steps from the prepared guess: drop the bounds whose multiplier
@@ -339,7 +344,7 @@ class HierarchicalQP:
         lu, piv, x, info = _gesv(_with_bound_rows(K, self.limits.v_index[active]), rhs, overwrite_a=1, overwrite_b=1)
         if info != 0:  # singular: with the guessed bounds, or without any
             return self._fast_path(stacked, spans, retargetable, lo, hi, guess=False) if nb else None
-        keep = np.r_[0:n, n + m:n + m + nb]
+        keep = slice(0, n) if nb == 0 else np.concatenate([np.arange(n), np.arange(n + m, n + m + nb)])
         x = x[keep]
         return _FastPath(E, f, K, active, upper, beta, keep, x[:, 0],
                          {task: (at, x[:, cols]) for task, (at, cols) in Z.items()}, x[:, column:], (lu, piv))
