@@ -100,6 +100,7 @@ def test_the_pacer_keeps_absolute_deadlines_and_counts_overruns():
     assert pacer.report()["overruns"] == 1 and pacer.report()["ticks"] == 6
 
 
+@pytest.mark.realtime  # wall-clock and CPU time: run apart from the parallel tests
 def test_the_pacer_tells_overruns_off_the_cpu_from_work_that_took_too_long():
     pacer = Pacer(0.005)
     pacer.wait()
@@ -113,6 +114,7 @@ def test_the_pacer_tells_overruns_off_the_cpu_from_work_that_took_too_long():
     assert report["overruns"] == 2 and report["overruns_off_cpu"] == 1, report
 
 
+@pytest.mark.realtime  # emulated buses answer on wall-clock timeouts: a Dynamixel reply came late under -n 2
 def test_bring_up_commands_on_the_emulated_bus(capsys):
     assert main(["hw", "read"]) == 0
     rows = [line for line in capsys.readouterr().out.splitlines() if line.startswith("joint ")]
