@@ -70,8 +70,9 @@ class Pacer:
         return cpu < 0.5 * wall
 
     def report(self) -> dict:
-        """Overruns (and how many of them off the CPU) and the largest lateness over every tick; median and 99th percentile over the
-        latest ``LATENESS_WINDOW`` ticks (a run of hours keeps a bounded record)."""
+        """Overruns (and how many of them off the CPU) and the largest lateness over every tick;
+        median and 99th percentile over the latest ``LATENESS_WINDOW`` ticks (a run of hours keeps
+        a bounded record)."""
         late = np.array(self.lateness) * 1e3
         return {"ticks": self.ticks, "overruns": self.overruns, "overruns_off_cpu": self.overruns_off_cpu,
                 "lateness_ms": {"median": round(float(np.median(late)), 3) if late.size else None,

@@ -29,10 +29,11 @@ the last level on ``{v : E v = f, lo ≤ v ≤ hi}`` (E, f the stacked higher le
     [E    0   0   ] [−λ] = [f],    G = A_Lᵀ A_L + μ I,  a = A_Lᵀ b_L
     [S_B  0   0   ] [−ν]   [β]
 
-``B`` is guessed as the bounds the last solution lay on (a reaching arm stays on its bounds for
-many ticks), and the solution accepted when it is the optimum: the other bounds met, each ``ν_j``
-of the sign that holds its joint against its bound (the QP's KKT conditions), the higher levels
-met (relative residual ≤ ``EXACT_TOL``). Otherwise a few primal-dual active-set steps (drop the
+``B`` is guessed as the bounds that held the last solution (a reaching arm stays on its bounds
+for many ticks): those with a nonzero multiplier, or those a level-by-level solution lay on. The
+solution is accepted when it is the optimum: the other bounds met, each ``ν_j`` of the sign that
+holds its joint against its bound (the QP's KKT conditions), the higher levels met (relative
+residual ≤ ``EXACT_TOL``). Otherwise a few primal-dual active-set steps (drop the
 bounds of the wrong sign, add the ones broken, solve again) are tried; failing those (a higher
 level out of reach, a singular system) the levels are solved one by one as above. Both give the
 same solution where both apply.
@@ -139,7 +140,7 @@ class HierarchicalQP:
         self.rank_tol = rank_tol
         self.last: list[LevelResult] = []
         self._prepared: _Prepared | None = None
-        # The bounds the last solution lay on (indices into the limits' dofs, upper side): the fast
+        # The bounds that held the last solution (indices into the limits' dofs, upper side): the fast
         # path's first guess of the active set, which moves little from one tick to the next.
         self._active = (np.zeros(0, dtype=int), np.zeros(0, dtype=bool))
 
