@@ -70,6 +70,8 @@ ACTIVE_SET_STEPS = 3  # changes of the active set tried at finish before the lev
 
 _geqp3, _orgqr, _posv, _trtrs = lapack.dgeqp3, lapack.dorgqr, lapack.dposv, lapack.dtrtrs
 _gesv, _getrs = lapack.dgesv, lapack.dgetrs
+_NO_BOUNDS = (np.zeros(0, dtype=int), np.zeros(0, dtype=bool))  # an empty active set: (indices, upper)
+_NO_VALUES = np.zeros(0)
 
 
 class InfeasibleError(RuntimeError):
@@ -142,7 +144,7 @@ class HierarchicalQP:
         self._prepared: _Prepared | None = None
         # The bounds that held the last solution (indices into the limits' dofs, upper side): the fast
         # path's first guess of the active set, which moves little from one tick to the next.
-        self._active = (np.zeros(0, dtype=int), np.zeros(0, dtype=bool))
+        self._active = _NO_BOUNDS
 
     def solve(self, model: pin.Model, data: pin.Data, q: np.ndarray, dt: float,
               previous: np.ndarray | None = None) -> np.ndarray:
@@ -212,7 +214,7 @@ class HierarchicalQP:
         if tighter is not None:
             lo, hi = np.clip(np.maximum(lo, tighter[0]), lo, hi), np.clip(np.minimum(hi, tighter[1]), lo, hi)
         if fast is not None:
-            beta = np.where(fast.upper, hi[fast.active], lo[fast.active])
+            beta = np.where(fast.upper, hi[fast.active], lo[fast.active]) if fast.active.size else _NO_VALUES
             A, b = stacked[-1]
             if w is None:
                 f = np.concatenate([b for _, b in stacked[:-1]])
@@ -271,8 +273,11 @@ class HierarchicalQP:
             v[self.limits.v_index[active]] = beta  # on the bound, not a rounding beyond it
         if not self._meets_higher_levels(v, E, f, lo, hi, self.limits.v_index):
             return None
-        binding = np.abs(y) > DUAL_TOL
-        self._active = (active[binding], upper[binding])
+        if active.size:
+            binding = np.abs(y) > DUAL_TOL
+            self._active = (active[binding], upper[binding])
+        else:
+            self._active = _NO_BOUNDS
         return v
 
     def _change_active_set(self, w, fast: _FastPath, a, f, lo, hi) -> np.ndarray | None:
@@ -321,9 +326,9 @@ class HierarchicalQP:
         K.flat[: n * (n + m + 1) : n + m + 1] += self.mu  # μ on G's diagonal
         K[:n, n:] = E.T
         K[n:, :n] = E
-        active, upper = self._active if guess else (np.zeros(0, dtype=int), np.zeros(0, dtype=bool))
+        active, upper = self._active if guess else _NO_BOUNDS
         nb = active.size
-        beta = np.where(upper, hi[active], lo[active])
+        beta = np.where(upper, hi[active], lo[active]) if nb else _NO_VALUES
         blocks = {}  # task -> its rows in f
         for task in retargetable:
             k, rows = spans.get(task, (len(stacked) - 1, None))
@@ -333,16 +338,22 @@ class HierarchicalQP:
         rhs = np.zeros((n + m + nb, 1 + sum(at.stop - at.start for at in blocks.values()) + nb))
         rhs[:n, 0] = A.T @ b
         rhs[n:n + m, 0] = f
-        rhs[n + m:, 0] = beta
+        if nb:
+            rhs[n + m:, 0] = beta
         column, Z = 1, {}
         for task, at in blocks.items():
             for row in range(at.start, at.stop):
                 rhs[n + row, column + row - at.start] = 1.0
             Z[task] = (at, slice(column, column + at.stop - at.start))
             column = Z[task][1].stop
-        rhs[n + m + np.arange(nb), column + np.arange(nb)] = 1.0
-        # Factorized and solved in one call; K itself is kept for another active set at finish.
-        lu, piv, x, info = _gesv(_with_bound_rows(K, self.limits.v_index[active]), rhs, overwrite_a=1, overwrite_b=1)
+        if nb:
+            rhs[n + m + np.arange(nb), column + np.arange(nb)] = 1.0
+            M, scratch = _with_bound_rows(K, self.limits.v_index[active]), 1
+        else:
+            M, scratch = K, 0
+        # Factorized and solved in one call; K itself is kept (copied by LAPACK's wrapper when it is
+        # M) for another active set at finish.
+        lu, piv, x, info = _gesv(M, rhs, overwrite_a=scratch, overwrite_b=1)
         if info != 0:  # singular: with the guessed bounds, or without any
             return self._fast_path(stacked, spans, retargetable, lo, hi, guess=False) if nb else None
         keep = slice(0, n) if nb == 0 else np.concatenate([np.arange(n), np.arange(n + m, n + m + nb)])
