@@ -6,7 +6,16 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from robot_ctrl.sot import ComTask, FrameTask, HierarchicalQP, InfeasibleError, JointLimits, PostureTask, WholeBodyIK
+from robot_ctrl.sot import (
+    ComTask,
+    FrameTask,
+    HierarchicalQP,
+    InfeasibleError,
+    JointLimits,
+    PostureTask,
+    WholeBodyIK,
+    kkt_fast_path,
+)
 from robot_ctrl.sot.servo_bounds import servo_velocity_bounds
 from robot_ctrl.sot.whole_body_ik import upper_body_dofs
 
@@ -40,6 +49,15 @@ def set_conflicting_targets(talos, q, feet, com, hand, rng):
         f.set_target(pose)
     com.set_target(pin.centerOfMass(talos.pin, data, q) + rng.uniform(-0.05, 0.05, 3))
     hand.set_target(pin.SE3(np.eye(3), data.oMf[hand.frame_id].translation + rng.uniform(-0.5, 0.5, 3)))
+
+
+def held_feet_and_moved_com(talos, data, q, feet, com, shift):
+    """Targets every higher level can meet: the feet where they are at ``q``, the CoM moved by ``shift``
+    [m] (world frame). Leaves ``data``'s frames at ``q``."""
+    pin.framesForwardKinematics(talos.pin, data, q)
+    for f in feet:
+        f.set_target(data.oMf[f.frame_id].copy())
+    com.set_target(pin.centerOfMass(talos.pin, data, q) + shift)
 
 
 def test_lower_levels_never_change_higher_levels(talos, tasks):
@@ -153,22 +171,18 @@ def test_fast_path_gives_the_level_by_level_solution(talos, tasks, monkeypatch):
     data = talos.pin.createData()
     rng = np.random.default_rng(2)
     q = perturbed_half_sitting(talos, rng)
-    pin.framesForwardKinematics(talos.pin, data, q)
-    for f in feet:
-        f.set_target(data.oMf[f.frame_id].copy())
-    com.set_target(pin.centerOfMass(talos.pin, data, q) + [0.002, -0.001, 0.0])
+    held_feet_and_moved_com(talos, data, q, feet, com, [0.002, -0.001, 0.0])
     posture.set_target(q[talos.q_index] + rng.uniform(-0.01, 0.01, talos.nj))  # well inside the velocity limits
     solver = HierarchicalQP([feet, [com], [posture]], JointLimits.from_robot(talos))
     taken = []
-    accepts = solver._meets_higher_levels
-    monkeypatch.setattr(solver, "_meets_higher_levels", lambda *args: taken.append(accepts(*args)) or taken[-1])
+    accepts = kkt_fast_path.meets_higher_levels
+    monkeypatch.setattr(kkt_fast_path, "meets_higher_levels", lambda *args: taken.append(accepts(*args)) or taken[-1])
     fast = solver.solve(talos.pin, data, q, DT)
     assert taken == [True]  # the fast path applied
     monkeypatch.setattr(solver, "_fast_path", lambda *args: None)
     by_level = solver.solve(talos.pin, data, q, DT)
     assert np.linalg.norm(fast) > 0.1  # the CoM and posture tasks really move the robot
     np.testing.assert_allclose(fast, by_level, atol=1e-8)
-
 
 
 def test_a_higher_level_is_met_exactly_when_its_minimum_norm_step_breaks_a_bound(talos, tasks):
@@ -178,10 +192,7 @@ def test_a_higher_level_is_met_exactly_when_its_minimum_norm_step_breaks_a_bound
     feet, com, _, posture = tasks
     data = talos.pin.createData()
     q = perturbed_half_sitting(talos, np.random.default_rng(4))
-    pin.framesForwardKinematics(talos.pin, data, q)
-    for f in feet:
-        f.set_target(data.oMf[f.frame_id].copy())
-    com.set_target(pin.centerOfMass(talos.pin, data, q) + [0.004, 0.002, 0.0])
+    held_feet_and_moved_com(talos, data, q, feet, com, [0.004, 0.002, 0.0])
     posture.set_target(q[talos.q_index])
     limits = JointLimits.from_robot(talos)
     torso = np.isin(talos.v_index, [talos.pin.joints[talos.pin.getJointId(n)].idx_v
@@ -205,10 +216,7 @@ def test_fast_path_with_bounds_held_active_gives_the_level_by_level_solution(tal
     data = talos.pin.createData()
     rng = np.random.default_rng(5)
     q = perturbed_half_sitting(talos, rng)
-    pin.framesForwardKinematics(talos.pin, data, q)
-    for f in feet:
-        f.set_target(data.oMf[f.frame_id].copy())
-    com.set_target(pin.centerOfMass(talos.pin, data, q) + [0.002, -0.001, 0.0])
+    held_feet_and_moved_com(talos, data, q, feet, com, [0.002, -0.001, 0.0])
     posture.set_target(q[talos.q_index] + rng.choice([-1.0, 1.0], talos.nj))
     solver = HierarchicalQP([feet, [com], [posture]], JointLimits.from_robot(talos))
     first = solver.solve(talos.pin, data, q, DT)
