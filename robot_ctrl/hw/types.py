@@ -74,18 +74,10 @@ class JointState:
         """Why this sample cannot be trusted (time, joint positions, velocities or temperatures
         that are not ``nj`` finite real numbers; a body sensor's reading, where there is one, not
         finite numbers of its shape), or None."""
-        if self._sound(nj):
+        arrays = self._arrays(nj)
+        if self._sound(arrays):
             return None
-        fields = {"t": (self.t, ()), "q": (self.q, (nj,)), "dq": (self.dq, (nj,))}
-        if self.temperature is not None:
-            fields["temperature"] = (self.temperature, (nj,))
-        for name, shape in (("base_pos", (3,)), ("base_quat_xyzw", (4,)), ("base_linvel", (3,)),
-                            ("base_angvel", (3,)), ("base_linacc", (3,))):
-            if getattr(self, name) is not None:
-                fields[name] = (getattr(self, name), shape)
-        for side, wrench in (self.foot_wrench or {}).items():
-            fields[f"foot_wrench[{side!r}]"] = (wrench, (6,))
-        for name, (value, shape) in fields.items():
+        for name, value, shape in [("t", self.t, ()), *arrays]:
             array = np.asarray(value)
             if array.dtype.kind not in "fiu":
                 return f"JointState.{name} is not real numbers (dtype {array.dtype})"
@@ -95,26 +87,27 @@ class JointState:
                 return f"JointState.{name} is not finite at {np.flatnonzero(~np.isfinite(array.reshape(-1))).tolist()}"
         return None
 
-    def _sound(self, nj: int) -> bool:
-        """:meth:`problem`'s usual answer, quickly (one check over every array): every field a float
-        array of its shape, and finite. False sends it to the field-by-field check, which names what
-        is wrong."""
-        arrays = [self.q, self.dq]
-        shapes = [(nj,), (nj,)]
-        for value, shape in ((self.temperature, (nj,)), (self.base_pos, (3,)), (self.base_quat_xyzw, (4,)),
-                             (self.base_linvel, (3,)), (self.base_angvel, (3,)), (self.base_linacc, (3,))):
-            if value is not None:
-                arrays.append(value)
-                shapes.append(shape)
-        for wrench in (self.foot_wrench or {}).values():
-            arrays.append(wrench)
-            shapes.append((6,))
+    def _arrays(self, nj: int) -> list[tuple[str, object, tuple[int, ...]]]:
+        """``(name, value, expected shape)`` of every array field :meth:`problem` checks."""
+        arrays = [("q", self.q, (nj,)), ("dq", self.dq, (nj,))]
+        for name, shape in (("temperature", (nj,)), ("base_pos", (3,)), ("base_quat_xyzw", (4,)),
+                            ("base_linvel", (3,)), ("base_angvel", (3,)), ("base_linacc", (3,))):
+            if getattr(self, name) is not None:
+                arrays.append((name, getattr(self, name), shape))
+        for side, wrench in (self.foot_wrench or {}).items():
+            arrays.append((f"foot_wrench[{side!r}]", wrench, (6,)))
+        return arrays
+
+    def _sound(self, arrays) -> bool:
+        """:meth:`problem`'s usual answer, quickly (one check over every array): the time and every
+        array field finite floats of their shape. False sends it to the field-by-field check, which
+        names what is wrong."""
         if not isinstance(self.t, (float, int)) or isinstance(self.t, bool) or not math.isfinite(self.t):
             return False
-        for array, shape in zip(arrays, shapes):
+        for _, array, shape in arrays:
             if type(array) is not np.ndarray or array.dtype != np.float64 or array.shape != shape:
                 return False
-        return bool(np.isfinite(np.concatenate(arrays)).all())
+        return bool(np.isfinite(np.concatenate([array for _, array, _ in arrays])).all())
 
     def body_fields(self) -> dict:
         """The fields measured by body sensors (base pose, IMU, foot F/T, floor contacts), for a
