@@ -14,7 +14,7 @@ class ComTask(Task):
 
     def __init__(self, name: str = "com", axes=(0, 1, 2), locked_dofs=(), **kw):
         super().__init__(name, **kw)
-        self.axes = np.asarray(axes)
+        self.axes = slice(None) if tuple(axes) == (0, 1, 2) else np.asarray(axes)  # all: a view, not a copy
         self.locked_dofs = np.asarray(locked_dofs, dtype=int)
         self.target = np.zeros(3)
         self.target_velocity = np.zeros(3)

@@ -21,8 +21,12 @@ class FrameTask(Task):
     def __init__(self, name: str, frame_id: int, axes=("x", "y", "z", "rx", "ry", "rz"), **kw):
         super().__init__(name, **kw)
         self.frame_id = frame_id
-        self.rows_idx = np.array([_AXES[a] for a in axes])
-        self._all_rows = self.rows_idx.tolist() == list(range(6))
+        rows = np.array([_AXES[a] for a in axes])
+        # Only the parts of the error that the axes ask for are computed, and the rows are taken as
+        # slices where they can be: this runs for every frame task on every tick.
+        self._linear, self._angular = bool((rows < 3).any()), bool((rows >= 3).any())
+        self._rows, self._all_rows = _as_slice(rows), rows.tolist() == list(range(6))
+        self._error_rows = _as_slice(rows - (0 if self._linear else 3))
         self.target = pin.SE3.Identity()
         self.target_velocity = np.zeros(6)  # [linear (m/s), angular (rad/s)] in the world frame
 
@@ -41,12 +45,24 @@ class FrameTask(Task):
 
     def error_and_jacobian(self, model, data, q):
         current = data.oMf[self.frame_id]
-        e = np.concatenate((self._target_translation - current.translation,
-                            pin.log3(self._target_rotation @ current.rotation.T)))
         J = pin.getFrameJacobian(model, data, self.frame_id, pin.LOCAL_WORLD_ALIGNED)
+        if not self._angular:
+            e = self._target_translation - current.translation
+        elif not self._linear:
+            e = pin.log3(self._target_rotation @ current.rotation.T)
+        else:
+            e = np.concatenate((self._target_translation - current.translation,
+                                pin.log3(self._target_rotation @ current.rotation.T)))
         if self._all_rows:
             return e, J
-        return e[self.rows_idx], J[self.rows_idx]
+        return e[self._error_rows], J[self._rows]
 
     def feedforward(self):
-        return self.target_velocity if self._all_rows else self.target_velocity[self.rows_idx]
+        return self.target_velocity if self._all_rows else self.target_velocity[self._rows]
+
+
+def _as_slice(rows: np.ndarray) -> slice | np.ndarray:
+    """``rows`` as a slice when they are consecutive (a view rather than a copy), else as they are."""
+    if rows.size and (np.diff(rows) == 1).all():
+        return slice(int(rows[0]), int(rows[-1]) + 1)
+    return rows

@@ -6,12 +6,13 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
+from numba import njit
 
 from robot_ctrl.robot.model import RobotModel
 
 
 class LimitViolation(ValueError):
-    """The configuration given to the IK lies outside the hard (URDF) joint limits."""
+    """The configuration given to the IK lies outside the hard (URDF) joint limits, or holds a NaN or ∞."""
 
 
 @dataclass(frozen=True)
@@ -45,7 +46,8 @@ class JointLimits:
     of the effort limit over the joint's inertia at half-sitting: what the servo can accelerate the
     joint with, the rest of its torque left for gravity, friction and the other joints' coupling. A reference that changes velocity
     faster than that is a torque the servo's damping asks for and cannot give. A configuration
-    outside the hard URDF limits ``[hard_min, hard_max]`` raises :class:`LimitViolation`.
+    outside the hard URDF limits ``[hard_min, hard_max]``, or one holding a NaN or ∞, raises
+    :class:`LimitViolation`.
     """
 
     q_index: np.ndarray
@@ -86,34 +88,62 @@ class JointLimits:
                tol: float = 1e-6) -> tuple[np.ndarray, np.ndarray]:
         """``previous``: the IK's velocity of the last step on the bounded dofs (None: no
         acceleration bound, as at a start)."""
-        qj = q[self.q_index]
-        if (qj < self.hard_min - tol).any() or (qj > self.hard_max + tol).any():
+        lo, hi = np.empty(self.q_index.size), np.empty(self.q_index.size)
+        a_max, a_brake = self._rates
+        within = _velocity_bounds(q, self.q_index, dt, self.hard_min - tol, self.hard_max + tol, self.q_min,
+                                  self.q_max, self.v_max, a_brake, a_max, _NO_PREVIOUS if previous is None else previous,
+                                  lo, hi)
+        if within == _NOT_FINITE:
+            raise LimitViolation("configuration contains NaN or inf")
+        if within == _OUTSIDE:
+            qj = q[self.q_index]
             outside = np.flatnonzero((qj < self.hard_min - tol) | (qj > self.hard_max + tol))
             detail = ", ".join(f"{self.names[i]} = {qj[i]:.4f} not in [{self.hard_min[i]:.4f}, {self.hard_max[i]:.4f}]"
                                for i in outside)
             raise LimitViolation(f"configuration outside the joint limits: {detail}")
-        to_min, to_max = (self.q_min - qj) / dt, (self.q_max - qj) / dt
-        if self.a_brake is not None:
-            bounded, a = self._braked
-            to_min = np.where(bounded, np.maximum(to_min, -_braking(a, -to_min * dt, dt)), to_min)
-            to_max = np.where(bounded, np.minimum(to_max, _braking(a, to_max * dt, dt)), to_max)
-        # ufuncs rather than np.clip: this runs every tick on a few dozen joints, where the wrapper costs most.
-        lo = np.maximum(-self.v_max, np.minimum(0.0, to_min))
-        hi = np.minimum(self.v_max, np.maximum(0.0, to_max))
-        if self.a_max is None or previous is None:
-            return lo, hi
-        step = self.a_max * dt
-        return (np.minimum(np.maximum(previous - step, lo), hi),
-                np.minimum(np.maximum(previous + step, lo), hi))
+        return lo, hi
 
     @cached_property
-    def _braked(self) -> tuple[np.ndarray, np.ndarray]:
-        """The joints with a braking deceleration, and it (1 where there is none)."""
-        bounded = np.isfinite(self.a_brake)
-        return bounded, np.where(bounded, self.a_brake, 1.0)
+    def _rates(self) -> tuple[np.ndarray, np.ndarray]:
+        """``a_max`` and ``a_brake`` with None spelled as ∞ on every joint, for the compiled bounds."""
+        none = np.full(self.q_index.size, np.inf)
+        return tuple(none if a is None else np.asarray(a, dtype=float) for a in (self.a_max, self.a_brake))
 
 
-def _braking(a_max: np.ndarray, distance: np.ndarray, dt: float) -> np.ndarray:
+_NO_PREVIOUS = np.zeros(0)  # no previous velocity: no acceleration bound
+_WITHIN, _OUTSIDE, _NOT_FINITE = 0, 1, 2  # what _velocity_bounds found
+
+
+@njit(cache=True)
+def _velocity_bounds(q, q_index, dt, hard_min, hard_max, q_min, q_max, v_max, a_brake, a_max, previous, lo, hi) -> int:
+    """:meth:`JointLimits.bounds` joint by joint into ``lo`` and ``hi``: ``_WITHIN``; or
+    ``_NOT_FINITE`` when the configuration ``q`` holds a NaN or ∞, ``_OUTSIDE`` when a joint lies
+    outside ``[hard_min, hard_max]``. Compiled: it runs every tick on a few dozen joints, where
+    numpy's cost per call outweighs the arithmetic. ∞ in ``a_brake`` or ``a_max``: no such bound
+    on that joint; an empty ``previous``: no acceleration bound."""
+    for x in q:
+        if not np.isfinite(x):
+            return _NOT_FINITE
+    for j in range(q_index.size):
+        qj = q[q_index[j]]
+        if not hard_min[j] <= qj <= hard_max[j]:
+            return _OUTSIDE
+        to_min, to_max = (q_min[j] - qj) / dt, (q_max[j] - qj) / dt
+        a = a_brake[j]
+        if a < np.inf:
+            to_min = max(to_min, -_braking(a, -to_min * dt, dt))
+            to_max = min(to_max, _braking(a, to_max * dt, dt))
+        low = max(-v_max[j], min(0.0, to_min))
+        high = min(v_max[j], max(0.0, to_max))
+        if previous.size and a_max[j] < np.inf:
+            step = a_max[j] * dt
+            low, high = min(max(previous[j] - step, low), high), min(max(previous[j] + step, low), high)
+        lo[j], hi[j] = low, high
+    return _WITHIN
+
+
+@njit(cache=True)
+def _braking(a_max: float, distance: float, dt: float) -> float:
     """``b(d) = a (√(dt²/4 + 2 d / a) − dt/2)``: the velocity that steps of ``dt`` decelerating by
     ``a`` bring to rest within ``d ≥ 0`` (``v²/2a + v dt/2 = d``); 0 at or beyond the limit."""
-    return a_max * (np.sqrt(dt * dt / 4.0 + 2.0 * np.maximum(0.0, distance) / a_max) - dt / 2.0)
+    return a_max * (np.sqrt(dt * dt / 4.0 + 2.0 * max(0.0, distance) / a_max) - dt / 2.0)

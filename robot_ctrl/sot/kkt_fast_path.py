@@ -31,7 +31,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import lapack
+from numba import njit
 
 from robot_ctrl.sot.task import Task
 
@@ -44,8 +44,8 @@ ACTIVE_SET_STEPS = 3  # changes of the active set tried at finish before the lev
 ActiveSet = tuple[np.ndarray, np.ndarray]
 NO_BOUNDS: ActiveSet = (np.zeros(0, dtype=int), np.zeros(0, dtype=bool))
 _NO_VALUES = np.zeros(0)
+_NO_ROWS = np.zeros(0, dtype=np.int64)
 
-_gesv, _getrs = lapack.dgesv, lapack.dgetrs
 
 
 @dataclass
@@ -58,70 +58,48 @@ class KKTFastPath:
 
     E: np.ndarray  # (m, nv) stacked higher levels
     f: np.ndarray  # (m,)
-    K: np.ndarray  # (nv + m, nv + m) the KKT matrix without bound rows, for another active set
+    A: np.ndarray  # (p, nv) the last level, for another active set
+    mu: float
     bounded: np.ndarray  # the velocity indices of the limits' dofs
     active: np.ndarray
     upper: np.ndarray
     beta: np.ndarray  # the active bounds' values at prepare
-    keep: slice | np.ndarray  # the rows of the KKT solution that make w
     w0: np.ndarray  # (nv + len(active),)
     Z: dict[Task, tuple[slice, np.ndarray]]  # the task's rows in f, and their (len(w), rows) block
     Zb: np.ndarray  # (len(w), len(active))
-    lu: tuple[np.ndarray, np.ndarray]  # LU factors and pivots of the KKT matrix with the bound rows
+    M: np.ndarray  # the KKT matrix with the bound rows, to solve again for other targets
 
     @classmethod
-    def prepare(cls, stacked, spans, retargetable, lo, hi, bounded, mu: float,
+    def prepare(cls, stacked, higher, spans, retargetable, lo, hi, bounded, mu: float,
                 guess: ActiveSet) -> KKTFastPath | None:
-        """The KKT matrix of the levels ``stacked`` (their ``(A, b)``; ``spans``: each task's level
-        and rows), with the ``guess`` of active bounds as equalities (without them if that makes
+        """The KKT matrix of the levels ``stacked`` (their ``(A, b)``; ``higher``: all but the last
+        stacked into one ``(E, f)``; ``spans``: each task's level and rows), with the ``guess`` of active bounds as equalities (without them if that makes
         the matrix singular), factorized and solved for the prepared targets, for unit changes of
         the ``retargetable`` tasks' rows of ``f`` and of the active bounds' values; None when the
         stack has one level or the matrix is singular."""
         if len(stacked) < 2:
             return None
-        E = np.vstack([A for A, _ in stacked[:-1]])
-        f = np.concatenate([b for _, b in stacked[:-1]])
+        E, f = higher
         A, b = stacked[-1]
-        n, m = A.shape[1], E.shape[0]
-        K = np.zeros((n + m, n + m))
-        K[:n, :n] = A.T @ A
-        K.flat[: n * (n + m + 1) : n + m + 1] += mu  # μ on G's diagonal
-        K[:n, n:] = E.T
-        K[n:, :n] = E
         active, upper = guess
         nb = active.size
         beta = np.where(upper, hi[active], lo[active]) if nb else _NO_VALUES
-        blocks = {}  # task -> its rows in f
+        Z, unit_rows, column = {}, [], 1  # task -> its rows in f, and their columns in the right-hand sides
         for task in retargetable:
             k, rows = spans.get(task, (len(stacked) - 1, None))
             if k < len(stacked) - 1:
                 start = sum(len(b) for _, b in stacked[:k])
-                blocks[task] = slice(start + rows.start, start + rows.stop)
-        rhs = np.zeros((n + m + nb, 1 + sum(at.stop - at.start for at in blocks.values()) + nb))
-        rhs[:n, 0] = A.T @ b
-        rhs[n:n + m, 0] = f
-        if nb:
-            rhs[n + m:, 0] = beta
-        column, Z = 1, {}
-        for task, at in blocks.items():
-            for row in range(at.start, at.stop):
-                rhs[n + row, column + row - at.start] = 1.0
-            Z[task] = (at, slice(column, column + at.stop - at.start))
-            column = Z[task][1].stop
-        if nb:
-            rhs[n + m + np.arange(nb), column + np.arange(nb)] = 1.0
-            M, scratch = _with_bound_rows(K, bounded[active]), 1
-        else:
-            M, scratch = K, 0
-        # Factorized and solved in one call; K itself is kept (copied by LAPACK's wrapper when it is
-        # M) for another active set at finish.
-        lu, piv, x, info = _gesv(M, rhs, overwrite_a=scratch, overwrite_b=1)
-        if info != 0:  # singular: with the guessed bounds, or without any
-            return cls.prepare(stacked, spans, retargetable, lo, hi, bounded, mu, NO_BOUNDS) if nb else None
-        keep = slice(0, n) if nb == 0 else np.concatenate([np.arange(n), np.arange(n + m, n + m + nb)])
-        x = x[keep]
-        return cls(E, f, K, bounded, active, upper, beta, keep, x[:, 0],
-                   {task: (at, x[:, cols]) for task, (at, cols) in Z.items()}, x[:, column:], (lu, piv))
+                at = slice(start + rows.start, start + rows.stop)
+                Z[task] = (at, slice(column, column + at.stop - at.start))
+                unit_rows.extend(range(at.start, at.stop))
+                column = Z[task][1].stop
+        try:
+            M, x = kkt_solution(E, f, A, b, mu, bounded[active] if nb else _NO_ROWS, beta,
+                                np.array(unit_rows, dtype=np.int64) if unit_rows else _NO_ROWS)
+        except np.linalg.LinAlgError:  # singular: with the guessed bounds, or without any
+            return cls.prepare(stacked, higher, spans, retargetable, lo, hi, bounded, mu, NO_BOUNDS) if nb else None
+        return cls(E, f, A, mu, bounded, active, upper, beta, x[:, 0],
+                   {task: (at, x[:, cols]) for task, (at, cols) in Z.items()}, x[:, column:], M)
 
     def solve(self, w: np.ndarray | None, f: np.ndarray, stacked, lo, hi) -> tuple[np.ndarray, ActiveSet] | None:
         """The velocity for the final targets and bounds, and the bounds that bind it (the next
@@ -132,11 +110,13 @@ class KKTFastPath:
         A, b = stacked[-1]
         if w is None:
             f = np.concatenate([b for _, b in stacked[:-1]])
-            w = _getrs(*self.lu, np.concatenate([A.T @ b, f, beta]))[0][self.keep]
+            n, m = A.shape[1], f.size
+            w = np.linalg.solve(self.M, np.concatenate([A.T @ b, f, beta]))
+            w = np.concatenate([w[:n], w[n + m:]])
         elif self.active.size:
             w = w + self.Zb @ (beta - self.beta)
         solved = self._accepted(w, self.active, self.upper, beta, f, lo, hi)
-        return solved if solved is not None else self._change_active_set(w, A.T @ b, f, lo, hi)
+        return solved if solved is not None else self._change_active_set(w, b, f, lo, hi)
 
     def _accepted(self, w, active, upper, beta, f, lo, hi) -> tuple[np.ndarray, ActiveSet] | None:
         """The velocity of the KKT solution ``w`` and its binding bounds (a multiplier beyond
@@ -156,12 +136,12 @@ class KKTFastPath:
         binding = np.abs(y) > DUAL_TOL
         return v, (active[binding], upper[binding])
 
-    def _change_active_set(self, w, a, f, lo, hi) -> tuple[np.ndarray, ActiveSet] | None:
+    def _change_active_set(self, w, b, f, lo, hi) -> tuple[np.ndarray, ActiveSet] | None:
         """Primal-dual active-set steps from the prepared guess: drop the bounds whose multiplier
         has the wrong sign, add those the solution breaks, solve again; None after
         ``ACTIVE_SET_STEPS`` steps or on a singular system."""
         bounded, active, upper = self.bounded, self.active, self.upper
-        n = self.K.shape[0] - self.E.shape[0]
+        n = self.A.shape[1]
         for _ in range(ACTIVE_SET_STEPS):
             y = w[n:]
             stays = ~(((y < -DUAL_TOL) & upper) | ((y > DUAL_TOL) & ~upper))
@@ -175,22 +155,23 @@ class KKTFastPath:
             active = np.concatenate([active[stays], added])
             upper = np.concatenate([upper[stays], over[added]])
             beta = np.where(upper, hi[active], lo[active])
-            M = _with_bound_rows(self.K, bounded[active])
-            _, _, x, info = _gesv(M, np.concatenate([a, f, beta]), overwrite_a=1, overwrite_b=1)
-            if info != 0:
+            try:
+                w = kkt_solution(self.E, f, self.A, b, self.mu, bounded[active], beta, _NO_ROWS)[1][:, 0]
+            except np.linalg.LinAlgError:
                 return None
-            w = np.concatenate([x[:n], x[self.K.shape[0]:]])
             solved = self._accepted(w, active, upper, beta, f, lo, hi)
             if solved is not None:
                 return solved
         return None
 
 
+@njit(cache=True)
 def meets_higher_levels(v, E, f, lo, hi, bounded) -> bool:
-    """The fast path's acceptance: ``v`` meets the bounds and ``E v = f`` to ``EXACT_TOL``."""
-    vb = v[bounded]
-    if not ((vb >= lo).all() and (vb <= hi).all()):
-        return False
+    """The fast path's acceptance: ``v`` meets the bounds and ``E v = f`` to ``EXACT_TOL``
+    (relative). Compiled, as :func:`kkt_solution`."""
+    for k in range(bounded.size):
+        if not lo[k] <= v[bounded[k]] <= hi[k]:
+            return False
     r = E @ v - f
     return math.sqrt(r @ r) <= EXACT_TOL * (1.0 + math.sqrt(f @ f))
 
@@ -204,11 +185,35 @@ def bounds_lain_on(v: np.ndarray, lo: np.ndarray, hi: np.ndarray, bounded: np.nd
     return active, at_hi[active]
 
 
-def _with_bound_rows(K: np.ndarray, dofs: np.ndarray) -> np.ndarray:
-    """A new KKT matrix: ``K`` bordered by the equalities ``v_j = β_j`` for the velocity indices ``dofs``."""
-    s, nb = K.shape[0], dofs.size
-    M = np.zeros((s + nb, s + nb))
-    M[:s, :s] = K
-    M[s + np.arange(nb), dofs] = 1.0
-    M[dofs, s + np.arange(nb)] = 1.0
-    return M
+@njit(cache=True)
+def kkt_solution(E, f, A, b, mu, dofs, beta, unit_rows):
+    """The KKT matrix ``M`` of the module docstring, ``S_B`` selecting the velocity indices
+    ``dofs``, and its solution ``x`` for the right-hand sides ``[Aᵀb; f; β]``, then a unit column
+    for each row of ``f`` in ``unit_rows``, then one for each bound; of ``x``, the rows of ``v``
+    and of the bounds' multipliers (those of the higher levels' are not needed). Raises
+    ``LinAlgError`` when ``M`` is singular. Compiled: in numpy, the calls would cost more than the
+    arithmetic."""
+    n, m, nb, r = A.shape[1], E.shape[0], dofs.size, unit_rows.size
+    s = n + m + nb
+    M = np.zeros((s, s))
+    M[:n, :n] = A.T @ A
+    for i in range(n):
+        M[i, i] += mu
+    M[n:n + m, :n] = E
+    M[:n, n:n + m] = E.T
+    for k in range(nb):
+        M[n + m + k, dofs[k]] = 1.0
+        M[dofs[k], n + m + k] = 1.0
+    rhs = np.zeros((s, 1 + r + nb))
+    rhs[:n, 0] = A.T @ b
+    rhs[n:n + m, 0] = f
+    rhs[n + m:, 0] = beta
+    for k in range(r):
+        rhs[n + unit_rows[k], 1 + k] = 1.0
+    for k in range(nb):
+        rhs[n + m + k, 1 + r + k] = 1.0
+    x = np.linalg.solve(M, rhs)
+    kept = np.empty((n + nb, x.shape[1]))
+    kept[:n] = x[:n]
+    kept[n:] = x[n + m:]
+    return M, kept

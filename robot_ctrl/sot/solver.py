@@ -60,18 +60,27 @@ class InfeasibleError(RuntimeError):
         self.level = level
 
 
-@dataclass
-class LevelResult:
-    """Diagnostics of one level of the last solve."""
+@dataclass(frozen=True)
+class _Layout:
+    """Where the active tasks' rows lie, all stacked in priority order: each level's rows, and
+    each task's level and rows in it. It changes only when a task is switched on or off."""
 
-    names: list[str]
-    used_qp: bool  # False when the unconstrained solution already met the bounds
-    A: np.ndarray
-    b: np.ndarray
+    tasks: list[list[Task]]  # the active tasks of each non-empty level
+    levels: list[slice]
+    spans: dict[Task, tuple[int, slice]]
 
-    def residual(self, v: np.ndarray) -> float:
-        """‖A v − b‖ of this level for the solution ``v``."""
-        return float(np.linalg.norm(self.A @ v - self.b))
+    @classmethod
+    def of(cls, levels: list[list[Task]], sizes: dict[Task, int]) -> _Layout:
+        """``levels``: every task by level; ``sizes``: the active ones' numbers of rows."""
+        tasks = [active for active in ([t for t in level if t in sizes] for level in levels) if active]
+        slices, spans, start = [], {}, 0
+        for k, level in enumerate(tasks):
+            first = start
+            for task in level:
+                spans[task] = (k, slice(start - first, start - first + sizes[task]))
+                start += sizes[task]
+            slices.append(slice(first, start))
+        return cls(tasks, slices, spans)
 
 
 @dataclass
@@ -83,9 +92,8 @@ class _Prepared:
     q: np.ndarray
     lo: np.ndarray
     hi: np.ndarray
-    levels: list[list[Task]]
+    layout: _Layout
     stacked: list[tuple[np.ndarray, np.ndarray]]
-    spans: dict[Task, tuple[int, slice]]  # each task's level and rows in it
     fast: KKTFastPath | None  # when the KKT matrix factorized
 
 
@@ -96,11 +104,11 @@ class HierarchicalQP:
         self.limits = limits
         self.mu = regularization
         self.rank_tol = rank_tol
-        self.last: list[LevelResult] = []
         self._prepared: _Prepared | None = None
         # The bounds that held the last solution (indices into the limits' dofs, upper side): the fast
         # path's first guess of the active set, which moves little from one tick to the next.
         self._active = NO_BOUNDS
+        self._layouts: dict[tuple, _Layout] = {}  # by the active tasks and their numbers of rows
 
     def solve(self, model: pin.Model, data: pin.Data, q: np.ndarray, dt: float,
               previous: np.ndarray | None = None) -> np.ndarray:
@@ -116,26 +124,21 @@ class HierarchicalQP:
         for its current target and the fast path's KKT matrix, factorized and solved, also for
         changes of the ``retargetable`` tasks' targets (module docstring)."""
         self._prepared = None
-        if not np.all(np.isfinite(q)):
-            raise InfeasibleError(0, "configuration contains NaN or inf")
         try:
             lo, hi = self.limits.bounds(q, dt, None if previous is None else previous[self.limits.v_index])
         except LimitViolation as exc:
             raise InfeasibleError(0, str(exc)) from exc
         pin.computeJointJacobians(model, data, q)
         pin.updateFramePlacements(model, data)
-        levels = [tasks for tasks in ([t for t in level if t.active] for level in self.levels) if tasks]
-        stacked, spans = [], {}
-        for k, tasks in enumerate(levels):
-            rows = [t.rows(model, data, q) for t in tasks]
-            start = 0
-            for task, (_, b) in zip(tasks, rows):
-                spans[task] = (k, slice(start, start + len(b)))
-                start += len(b)
-            stacked.append(_stack(rows))
-        self.last = [LevelResult([t.name for t in tasks], False, A, b) for tasks, (A, b) in zip(levels, stacked)]
-        fast = self._fast_path(stacked, spans, retargetable, lo, hi)
-        self._prepared = _Prepared(model, data, q, lo, hi, levels, stacked, spans, fast)
+        tasks = [t for level in self.levels for t in level if t.active]
+        rows = [t.rows(model, data, q) for t in tasks]
+        layout = self._layout(tasks, rows)
+        # One copy of all the rows; each level, and the higher levels together, are views of it.
+        A_all, b_all = np.concatenate([A for A, _ in rows]), np.concatenate([b for _, b in rows])
+        stacked = [(A_all[level], b_all[level]) for level in layout.levels]
+        m = layout.levels[-1].start
+        fast = self._fast_path(stacked, (A_all[:m], b_all[:m]), layout.spans, retargetable, lo, hi)
+        self._prepared = _Prepared(model, data, q, lo, hi, layout, stacked, fast)
 
     def finish(self, retargeted: tuple[Task, ...] = (),
                tighter: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
@@ -151,9 +154,9 @@ class HierarchicalQP:
         w = None if fast is None else fast.w0
         f = None if fast is None else fast.f
         for task in retargeted:
-            if task not in p.spans:
+            if task not in p.layout.spans:
                 raise ValueError(f"task {task.name!r} is not an active task of the prepared stack")
-            k, rows = p.spans[task]
+            k, rows = p.layout.spans[task]
             b = stacked[k][1].copy()
             b[rows] = task.rhs(p.model, p.data, p.q)
             if w is not None:
@@ -165,7 +168,6 @@ class HierarchicalQP:
                 else:
                     w = None  # not prepared for: solve the KKT system again
             stacked[k] = (stacked[k][0], b)
-            self.last[k].b = b
         lo, hi, bounded = p.lo, p.hi, self.limits.v_index
         if tighter is not None:
             lo, hi = np.clip(np.maximum(lo, tighter[0]), lo, hi), np.clip(np.minimum(hi, tighter[1]), lo, hi)
@@ -176,22 +178,21 @@ class HierarchicalQP:
                 return v
         v = np.zeros(p.model.nv)
         N = None  # basis of the directions the higher levels leave free; None = identity
-        for k, (tasks, (A, b)) in enumerate(zip(p.levels, stacked)):
+        for k, (tasks, (A, b)) in enumerate(zip(p.layout.tasks, stacked)):
             AN = A if N is None else A @ N
             r = b - A @ v
-            last = k == len(p.levels) - 1
+            last = k == len(p.layout.tasks) - 1
             z = None
             if not last:
                 qr = PivotedQR(AN, self.rank_tol)
                 z = qr.min_norm_solution(r)
                 if z is not None and not _meets_bounds(v[bounded], z, N, bounded, lo, hi):
                     z = self._exact_level(AN, r, N, v, lo, hi, bounded)
-                    self.last[k].used_qp = z is not None
             if z is None:
                 G = AN.T @ AN
                 G.flat[:: G.shape[0] + 1] += self.mu
                 a = AN.T @ r - self.mu * (v if N is None else N.T @ v)
-                z, self.last[k].used_qp = self._solve_level(k, tasks, G, a, N, v[bounded], lo, hi, bounded)
+                z = self._solve_level(k, tasks, G, a, N, v[bounded], lo, hi, bounded)
             v = v + (z if N is None else N @ z)
             if not last:
                 N = qr.null_space(N)
@@ -201,8 +202,16 @@ class HierarchicalQP:
         self._active = bounds_lain_on(v, lo, hi, bounded)
         return v
 
-    def _fast_path(self, stacked, spans, retargetable, lo, hi) -> KKTFastPath | None:
-        return KKTFastPath.prepare(stacked, spans, retargetable, lo, hi, self.limits.v_index, self.mu, self._active)
+    def _layout(self, tasks: list[Task], rows: list[tuple[np.ndarray, np.ndarray]]) -> _Layout:
+        key = (*tasks, *(len(b) for _, b in rows))
+        layout = self._layouts.get(key)
+        if layout is None:
+            layout = self._layouts[key] = _Layout.of(self.levels, {t: len(b) for t, (_, b) in zip(tasks, rows)})
+        return layout
+
+    def _fast_path(self, stacked, higher, spans, retargetable, lo, hi) -> KKTFastPath | None:
+        return KKTFastPath.prepare(stacked, higher, spans, retargetable, lo, hi, self.limits.v_index, self.mu,
+                                   self._active)
 
     @staticmethod
     def _exact_level(AN, r, N, v, lo, hi, bounded) -> np.ndarray | None:
@@ -222,10 +231,10 @@ class HierarchicalQP:
         except ValueError:
             return None
 
-    def _solve_level(self, k, tasks, G, a, N, vb, lo, hi, bounded) -> tuple[np.ndarray, bool]:
+    def _solve_level(self, k, tasks, G, a, N, vb, lo, hi, bounded) -> np.ndarray:
         _, z, info = _posv(G, a)
         if info == 0 and _meets_bounds(vb, z, N, bounded, lo, hi, BOUND_SLACK):
-            return z, False
+            return z
         Nb = np.eye(G.shape[0])[bounded] if N is None else N[bounded]
         # A dof that the higher levels fix (zero row of N) already meets its bounds and cannot move:
         # its near-zero rows would only make the QP degenerate.
@@ -240,17 +249,10 @@ class HierarchicalQP:
             z = quadprog.solve_qp(G, a, C, np.minimum(c, 0.0) - BOUND_SLACK)[0]
         except ValueError as exc:
             raise InfeasibleError(k, f"{exc} (tasks {[t.name for t in tasks]})") from exc
-        return z, True
+        return z
 
 
 def _meets_bounds(vb, z, N, bounded, lo, hi, slack: float = 0.0) -> bool:
     """Whether the bounded dofs of ``v + N z`` (``vb``: those of ``v``) lie in ``[lo − slack, hi + slack]``."""
     vz = vb + (z[bounded] if N is None else N[bounded] @ z)
     return bool(((vz >= lo - slack) & (vz <= hi + slack)).all())
-
-
-def _stack(rows: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndarray]:
-    """One level's ``(A, b)`` from its tasks' rows."""
-    if len(rows) == 1:
-        return rows[0]
-    return np.vstack([r[0] for r in rows]), np.concatenate([r[1] for r in rows])
