@@ -54,7 +54,7 @@ class FootRef:
         return FootRef(other(self.side), self.yaw, self.offset + rotation(self.yaw) @ [0.0, sign * width], self.S)
 
     def same_anchor(self, other_ref: "FootRef") -> bool:
-        return np.array_equal(self.S, other_ref.S)
+        return self.S is other_ref.S or not (self.S != other_ref.S).any()
 
     def position(self, F: np.ndarray) -> np.ndarray:
         return self.offset + self.S @ F

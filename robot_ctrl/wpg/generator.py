@@ -24,6 +24,7 @@ the clock use physical time. This is how a crowd coupling sets the step period (
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass
 
@@ -32,7 +33,7 @@ import numpy as np
 from robot_ctrl.geometry import GRAVITY, PlanarMove, mean_yaw, other, rotation, wrap_angle
 from robot_ctrl.wpg.footstep import FootRef, Footstep
 from robot_ctrl.wpg.lipm import com_at, dcm, natural_frequency
-from robot_ctrl.wpg.mpc import MpcInfeasible, MpcProblem, MpcSolution, Reach, SampleSupport, WalkingMPC
+from robot_ctrl.wpg.mpc import MpcInfeasible, MpcProblem, MpcSolution, Reach, SampleSupports, WalkingMPC
 from robot_ctrl.wpg.params import WalkParams
 from robot_ctrl.wpg.plan import GaitPhase, PlanPreview, PreviewSample, SolePlan, Touchdown, WalkReference
 from robot_ctrl.wpg.segments import Segment, blend, midpoint, segment_at, support_halfplanes, swing_point
@@ -225,19 +226,30 @@ class WalkingPatternGenerator:
     def _problem(self, segments: list[Segment], landings: list[Landing]) -> MpcProblem:
         p = self.p
         half = np.array([p.foot_length / 2 - p.zmp_margin, p.foot_width / 2 - p.zmp_margin])
-        supports = []
+        # Each sample's segment (as segment_at finds it, for the sample's end), fraction of it and
+        # support polygon (one per segment half), in plain floats and lists: numpy only once per array.
         polygons: dict[tuple[int, bool], tuple] = {}  # (segment, second half) -> (H, h, anchor)
+        H, h, anchors, zmp_from, zmp_to, fractions = [], [], [], [], [], []
+        k, start, last = 0, 0.0, len(segments) - 1
         for j in range(p.horizon):
             t = (j + 1) * p.sample_time  # nominal
-            k, start = segment_at(segments, t)
+            while k < last and t > start + segments[k].duration + 1e-9:
+                start += segments[k].duration
+                k += 1
             seg = segments[k]
-            s = 1.0 if not np.isfinite(seg.duration) or seg.duration == 0 else (t - start) / seg.duration
+            s = 1.0 if not math.isfinite(seg.duration) or seg.duration == 0 else (t - start) / seg.duration
             s = min(max(s, 0.0), 1.0)
-            key = (id(seg), s >= 0.5)
+            key = (k, s >= 0.5)
             if key not in polygons:
                 polygons[key] = support_halfplanes(seg, s, half)
-            zmp_ref = seg.zmp_from if seg.zmp_to is None else blend(seg.zmp_from, seg.zmp_to, s)
-            supports.append(SampleSupport(*polygons[key], zmp_ref))
+            polygon = polygons[key]
+            H.append(polygon[0])
+            h.append(polygon[1])
+            anchors.append(polygon[2])
+            zmp_from.append(seg.zmp_from)
+            zmp_to.append(seg.zmp_from if seg.zmp_to is None else seg.zmp_to)
+            fractions.append(s)
+        supports = SampleSupports.of(H, h, anchors, zmp_from, zmp_to, fractions)
         # The velocity reference, turned by the integrated yaw rate at each sample (world frame).
         heading = self.heading + self.velocity[2] * self.time_scale * p.sample_time * np.arange(1, p.horizon + 1)
         cos, sin = np.cos(heading), np.sin(heading)

@@ -30,13 +30,13 @@ from dataclasses import dataclass, field
 import casadi as ca
 import daqp
 import numpy as np
+from numba import njit
 
 from robot_ctrl.geometry import rotation
 from robot_ctrl.wpg.footstep import FootRef
 from robot_ctrl.wpg.lipm import horizon_matrices
 from robot_ctrl.wpg.params import WalkParams
-
-MAX_EDGES = 8  # a hull of two rectangles has at most 8 edges
+from robot_ctrl.wpg.segments import MAX_EDGES
 
 DIRECT = "daqp"  # WalkParams.solver that calls daqp directly; any other names a CasADi conic plugin
 _DAQP_EQUALITY = 5  # daqp's constraint sense for an equality row: active and immutable
@@ -54,13 +54,30 @@ class MpcInfeasible(RuntimeError):
 
 
 @dataclass
-class SampleSupport:
-    """ZMP constraint and reference at one horizon sample."""
+class SampleSupports:
+    """The ZMP constraints and references of the horizon's ``N`` samples (world frame), as arrays:
+    at sample ``j``, ``H[j] (z − anchor_j(F)) ≤ h[j]`` (rows beyond the polygon's edges: zero
+    normals, ``h = ∞``), and the reference ZMP ``zmp_ref_j(F)``; each point affine in the footsteps,
+    ``offset + S F`` (as a :class:`FootRef`)."""
 
-    H: np.ndarray  # (k, 2) outward normals, world frame
-    h: np.ndarray  # (k,) so that H (z − anchor) ≤ h
-    anchor: FootRef
-    zmp_ref: FootRef  # reference ZMP (affine in F)
+    H: np.ndarray  # (N, MAX_EDGES, 2) outward normals
+    h: np.ndarray  # (N, MAX_EDGES)
+    anchor_S: np.ndarray  # (N, 2, 4)
+    anchor_offset: np.ndarray  # (N, 2)
+    zmp_ref_S: np.ndarray  # (N, 2, 4)
+    zmp_ref_offset: np.ndarray  # (N, 2)
+
+    @classmethod
+    def of(cls, H: list[np.ndarray], h: list[np.ndarray], anchors: list[FootRef], zmp_from: list[FootRef],
+           zmp_to: list[FootRef], s: list[float]) -> SampleSupports:
+        """From each sample's polygon ``(H, h)`` (``MAX_EDGES`` rows) anchored at ``anchors``, and its
+        reference ZMP at the fraction ``s`` of the way from ``zmp_from`` to ``zmp_to``."""
+        s = np.array(s)[:, None]
+        # np.array of a list of equal arrays: numpy's np.stack costs three times as much here.
+        ref_S = (1 - s)[:, :, None] * np.array([a.S for a in zmp_from]) + s[:, :, None] * np.array([b.S for b in zmp_to])
+        ref_offset = (1 - s) * np.array([a.offset for a in zmp_from]) + s * np.array([b.offset for b in zmp_to])
+        return cls(np.array(H), np.array(h), np.array([a.S for a in anchors]), np.array([a.offset for a in anchors]),
+                   ref_S, ref_offset)
 
 
 @dataclass
@@ -79,7 +96,7 @@ class MpcProblem:
     com_x: np.ndarray  # (3,) [x, ẋ, ẍ]
     com_y: np.ndarray
     velocity_ref: np.ndarray  # (N, 2) world frame [m/s]
-    supports: list[SampleSupport]
+    supports: SampleSupports
     reach: list[Reach]
     fixed: dict[int, FootRef] = field(default_factory=dict)  # footstep index -> where it must be
     footstep_nominal: np.ndarray = field(default_factory=lambda: np.zeros(4))
@@ -136,16 +153,17 @@ class WalkingMPC:
         self._set_sample_time(prob.sample_time or self.p.sample_time)
         H, g, A, lba, uba = self.assemble(prob)
         w = self._solve_direct(H, g, A, lba, uba) if self.solver is None else self._solve_casadi(H, g, A, lba, uba)
-        violation = np.max(np.maximum(A @ w - uba, lba - A @ w))
+        Aw = A @ w
+        violation = max((Aw - uba).max(), (lba - Aw).max())
         if violation > 1e-5:
             raise MpcInfeasible(f"walking QP solution violates its constraints by {violation:.2e}")
         N = self.N
-        # Warm start of a CasADi plugin for the next sample: the jerks shifted by one sample.
-        self._x0 = np.concatenate([w[1:N], w[N - 1 : N], w[N + 1 : 2 * N], w[2 * N - 1 : 2 * N], w[2 * N :]])
+        if self.solver is not None:  # warm start of a CasADi plugin for the next sample: the jerks shifted by one
+            self._x0 = np.concatenate([w[1:N], w[N - 1 : N], w[N + 1 : 2 * N], w[2 * N - 1 : 2 * N], w[2 * N :]])
         Ux, Uy, F = w[:N], w[N : 2 * N], w[2 * N :]
         m = self.m
-        zmp = np.stack([m.Pzs @ prob.com_x + m.Pzu @ Ux, m.Pzs @ prob.com_y + m.Pzu @ Uy], axis=1)
-        com = np.stack([m.Pps @ prob.com_x + m.Ppu @ Ux, m.Pps @ prob.com_y + m.Ppu @ Uy], axis=1)
+        zmp = np.array([m.Pzs @ prob.com_x + m.Pzu @ Ux, m.Pzs @ prob.com_y + m.Pzu @ Uy]).T
+        com = np.array([m.Pps @ prob.com_x + m.Ppu @ Ux, m.Pps @ prob.com_y + m.Ppu @ Uy]).T
         return MpcSolution(Ux, Uy, F, zmp, com)
 
     def _solve_direct(self, H, g, A, lba, uba) -> np.ndarray:
@@ -177,9 +195,9 @@ class WalkingMPC:
         zs = np.stack([m.Pzs @ prob.com_x, m.Pzs @ prob.com_y], axis=1)  # (N, 2) ZMP drift without jerk
         # ZMP residual Z − Z_ref(F) = [Mzu, −S_ref] w + bz and velocity residual Ẋ − Ẋ_ref = [Mvu, 0] w + bv,
         # x rows then y rows.
-        S_ref = np.stack([s.zmp_ref.S for s in prob.supports])  # (N, 2, 4)
-        off_ref = np.stack([s.zmp_ref.offset for s in prob.supports])  # (N, 2)
-        S_ref = np.concatenate([S_ref[:, 0], S_ref[:, 1]])  # (2N, 4)
+        sup = prob.supports
+        S_ref = np.concatenate([sup.zmp_ref_S[:, 0], sup.zmp_ref_S[:, 1]])  # (2N, 4)
+        off_ref = sup.zmp_ref_offset
         bz = (zs - off_ref).T.ravel()
         bv = np.concatenate([m.Pvs @ prob.com_x, m.Pvs @ prob.com_y]) - prob.velocity_ref.T.ravel()
         H = self._H_const.copy()
@@ -194,19 +212,8 @@ class WalkingMPC:
         lba = np.full(self.nc, -np.inf)
         uba = np.full(self.nc, np.inf)
         # ZMP rows, MAX_EDGES per sample (unused rows stay zero and unbounded): H_j (Z_j − a_j − S_j F) ≤ h_j.
-        Hs = np.zeros((N, MAX_EDGES, 2))
-        hs = np.full((N, MAX_EDGES), np.inf)
-        for j, sup in enumerate(prob.supports):
-            Hs[j, : len(sup.h)] = sup.H
-            hs[j, : len(sup.h)] = sup.h
-        S_anchor = np.stack([s.anchor.S for s in prob.supports])  # (N, 2, 4)
-        off_anchor = np.stack([s.anchor.offset for s in prob.supports])
-        rows = MAX_EDGES * N
-        A[:rows, :N] = (Hs[:, :, 0, None] * m.Pzu[:, None, :]).reshape(rows, N)
-        A[:rows, N:nu] = (Hs[:, :, 1, None] * m.Pzu[:, None, :]).reshape(rows, N)
-        A[:rows, nu:] = -(Hs @ S_anchor).reshape(rows, 4)
-        uba[:rows] = (hs + np.einsum("jkc,jc->jk", Hs, off_anchor - zs)).ravel()
-        row = rows
+        _zmp_rows(sup.H, sup.h, m.Pzu, sup.anchor_S, sup.anchor_offset, zs, A, uba)
+        row = rows = MAX_EDGES * N
         for r in prob.reach:
             Rt = rotation(r.previous.yaw).T
             A[row : row + 2, nu:] = Rt @ (_select(r.index) - r.previous.S)
@@ -220,6 +227,25 @@ class WalkingMPC:
             lba[row : row + 2] = uba[row : row + 2] = ref.offset
             row += 2
         return H, g, A, lba, uba
+
+
+@njit(cache=True)
+def _zmp_rows(Hs, hs, Pzu, S_anchor, off_anchor, zs, A, uba) -> None:
+    """The ZMP rows of ``A`` and ``uba`` (the first ``MAX_EDGES N``), row ``(j, e)`` for edge ``e``
+    of sample ``j``: ``H_je [Pzu_j Ux, Pzu_j Uy] − H_je S_j F ≤ h_je + H_je (a_j − z_j)`` (``z_j``
+    the ZMP drift ``zs``, ``a_j`` the anchor offset). Compiled: numpy's broadcasting and reshapes
+    cost more than these few thousand products."""
+    N, edges = Hs.shape[0], Hs.shape[1]
+    for j in range(N):
+        for e in range(edges):
+            r = j * edges + e
+            hx, hy = Hs[j, e, 0], Hs[j, e, 1]
+            for i in range(N):
+                A[r, i] = hx * Pzu[j, i]
+                A[r, N + i] = hy * Pzu[j, i]
+            for c in range(4):
+                A[r, 2 * N + c] = -(hx * S_anchor[j, 0, c] + hy * S_anchor[j, 1, c])
+            uba[r] = hs[j, e] + (hx * (off_anchor[j, 0] - zs[j, 0]) + hy * (off_anchor[j, 1] - zs[j, 1]))
 
 
 def _select(index: int) -> np.ndarray:

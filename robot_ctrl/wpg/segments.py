@@ -13,6 +13,8 @@ from robot_ctrl.geometry import rotation, wrap_angle
 from robot_ctrl.geometry.support_polygon import SupportPolygon
 from robot_ctrl.wpg.footstep import FootRef, Footstep
 
+MAX_EDGES = 8  # a hull of two rectangles has at most 8 edges
+
 
 @dataclass
 class Segment:
@@ -67,7 +69,8 @@ def swing_point(segments: list[Segment], k: int, side: str, F: np.ndarray, s: fl
 
 
 def support_halfplanes(seg: Segment, s: float, half: np.ndarray) -> tuple[np.ndarray, np.ndarray, FootRef]:
-    """Support half-planes ``H (z − anchor) ≤ h`` of a segment at fraction ``s`` of it."""
+    """Support half-planes ``H (z − anchor) ≤ h`` of a segment at fraction ``s`` of it, as
+    ``MAX_EDGES`` rows (those beyond the hull's edges: zero normal, ``h = ∞``)."""
     if len(seg.feet) == 2 and not seg.feet[0].same_anchor(seg.feet[1]):
         # Double support towards a foot that is still a decision variable: the hull would not be
         # linear in it, so the ZMP is kept in the rear foot for the first half, in the front one after
@@ -76,17 +79,18 @@ def support_halfplanes(seg: Segment, s: float, half: np.ndarray) -> tuple[np.nda
     else:
         feet = seg.feet
     anchor = feet[0]
-    soles = tuple((*(f.offset - anchor.offset).tolist(), f.yaw) for f in feet)
+    soles = ((0.0, 0.0, anchor.yaw), *((*(f.offset - anchor.offset).tolist(), f.yaw) for f in feet[1:]))
     H, h = _halfplanes(soles, 2 * float(half[0]), 2 * float(half[1]))
     return H, h, anchor
 
 
 @lru_cache(maxsize=256)
 def _halfplanes(soles: tuple[tuple[float, float, float], ...], length: float, width: float):
-    """Half-planes of the soles' hull, (x, y, yaw) each relative to the anchor: the same few shapes
-    recur sample after sample (one per stance and per double support), so they are computed once.
-    Read-only: every caller shares them."""
-    H, h = SupportPolygon.of_soles([((x, y), yaw) for x, y, yaw in soles], length, width).halfplanes
-    H, h = H.copy(), h.copy()
+    """Half-planes of the soles' hull, (x, y, yaw) each relative to the anchor, padded to
+    ``MAX_EDGES``: the same few shapes recur sample after sample (one per stance and per double
+    support), so they are computed once. Read-only: every caller shares them."""
+    hull_H, hull_h = SupportPolygon.of_soles([((x, y), yaw) for x, y, yaw in soles], length, width).halfplanes
+    H, h = np.zeros((MAX_EDGES, 2)), np.full(MAX_EDGES, np.inf)
+    H[: len(hull_h)], h[: len(hull_h)] = hull_H, hull_h
     H.flags.writeable = h.flags.writeable = False
     return H, h
