@@ -20,11 +20,13 @@ def quintic_coefficients(duration: float, p0: np.ndarray, v0: np.ndarray, a0: np
     p(T) = p1, ṗ(T) = p̈(T) = 0."""
     T = duration
     c0, c1, c2 = p0, v0, a0 / 2.0
-    # Remaining three coefficients from the end conditions (linear system in c3, c4, c5).
-    M = np.array([[T**3, T**4, T**5], [3 * T**2, 4 * T**3, 5 * T**4], [6 * T, 12 * T**2, 20 * T**3]])
-    rhs = np.stack([p1 - (c0 + c1 * T + c2 * T**2), -(c1 + 2 * c2 * T), -(2 * c2) * np.ones_like(p0)])
-    c345 = np.linalg.solve(M, rhs)
-    return np.vstack([c0, c1, c2, c345])
+    # The end conditions on c3, c4, c5, p(T) − (c0 + c1 T + c2 T²) = h, ṗ(T) − (c1 + 2 c2 T) = d,
+    # p̈(T) − 2 c2 = e (h, d, e below), solved in closed form.
+    h, d, e = p1 - (c0 + c1 * T + c2 * T**2), -(c1 + 2 * c2 * T), -2 * c2
+    c3 = (10 * h - 4 * d * T + e * T**2 / 2) / T**3
+    c4 = (-15 * h + 7 * d * T - e * T**2) / T**4
+    c5 = (6 * h - 3 * d * T + e * T**2 / 2) / T**5
+    return np.array([c0, c1, c2, c3, c4, c5])
 
 
 def _evaluate(c: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
