@@ -335,7 +335,8 @@ def test_a_servo_bounded_ik_asks_its_arm_servos_for_no_more_than_their_effort(ta
         for _ in range(600):
             q_ref = robot.joints_from_q(ik.q)
             ik.prepare(DT)
-            within = servo_velocity_bounds(q_ref, q, dq, 0.0, robot.kp, robot.kd, budget, DT) if bounded else None
+            within = (servo_velocity_bounds(q_ref, q, dq, np.zeros(robot.nj), robot.kp, robot.kd, budget, DT)
+                      if bounded else None)
             v = ik.finish(tighter=within)[robot.v_index]
             tau = robot.kp * (robot.joints_from_q(ik.q) - q) + robot.kd * (v - dq)
             ratio = np.maximum(ratio, np.abs(tau) / robot.effort)

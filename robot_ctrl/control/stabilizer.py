@@ -77,7 +77,7 @@ class DcmStabilizer:
             across = np.array([-math.sin(heading), math.cos(heading)])  # the heading frame's y axis
             p_d += (g.lateral_dcm_rate - g.dcm_rate) / self.omega * (across @ error) * across
         if est.support is not None:
-            p_d = _clamp_into(est.support, p_d)
+            p_d = est.support.clamp(p_d)
         self.desired_zmp = p_d
         rate = g.k_com * (com_ref - est.com[:2]) - g.k_leak * self.offset
         if est.zmp is not None:
@@ -85,17 +85,3 @@ class DcmStabilizer:
         self.offset = np.minimum(np.maximum(self.offset + rate * dt, -g.max_offset), g.max_offset)  # np.clip, faster
         return self.offset
 
-
-def _clamp_into(polygon, p: np.ndarray) -> np.ndarray:
-    """``p`` if inside ``polygon``, else the closest point of its boundary."""
-    if polygon.contains(p):
-        return p
-    v = polygon.vertices
-    best, best_d = p, np.inf
-    for a, b in zip(v, np.roll(v, -1, axis=0)):
-        t = np.clip(np.dot(p - a, b - a) / max(np.dot(b - a, b - a), 1e-12), 0.0, 1.0)
-        c = a + t * (b - a)
-        d = np.linalg.norm(p - c)
-        if d < best_d:
-            best, best_d = c, d
-    return best

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
+from numba import njit
 
 
 def sole_corners(center, yaw: float, length: float, width: float) -> list[tuple[float, float]]:
@@ -72,10 +73,47 @@ class SupportPolygon:
         return np.array(normals), np.array(offsets)
 
     def contains(self, p: np.ndarray, tol: float = 1e-9) -> bool:
-        H, h = self.halfplanes
-        return bool((H @ p <= h + tol).all())
+        return _contains(self.vertices, p, tol)
+
+    def clamp(self, p: np.ndarray) -> np.ndarray:
+        """``p`` (2,) if inside, else the closest point of the boundary."""
+        return p if _contains(self.vertices, p, 1e-9) else _closest_boundary_point(self.vertices, p)
 
     def distance_inside(self, p: np.ndarray) -> float:
         """Signed distance to the boundary: positive inside [m]."""
         H, h = self.halfplanes
         return float(np.min(h - H @ p))
+
+
+# Compiled: the stabilizer asks them of a new polygon (the measured support) on every tick.
+@njit(cache=True)
+def _contains(vertices, p, tol):
+    """``H p ≤ h + tol`` for every edge's outward unit normal (counter-clockwise ``vertices``)."""
+    k = vertices.shape[0]
+    for i in range(k):
+        ax, ay = vertices[i]
+        bx, by = vertices[(i + 1) % k]
+        nx, ny = by - ay, ax - bx
+        norm = math.sqrt(nx * nx + ny * ny)
+        nx, ny = nx / norm, ny / norm
+        if nx * p[0] + ny * p[1] > nx * ax + ny * ay + tol:
+            return False
+    return True
+
+
+@njit(cache=True)
+def _closest_boundary_point(vertices, p):
+    """The point of the polygon's edges closest to ``p``."""
+    k = vertices.shape[0]
+    px, py = p[0], p[1]
+    best, best_d = (px, py), np.inf
+    for i in range(k):
+        ax, ay = vertices[i]
+        bx, by = vertices[(i + 1) % k]
+        ex, ey = bx - ax, by - ay
+        t = min(max(((px - ax) * ex + (py - ay) * ey) / max(ex * ex + ey * ey, 1e-12), 0.0), 1.0)
+        cx, cy = ax + t * ex, ay + t * ey
+        d = math.sqrt((px - cx) ** 2 + (py - cy) ** 2)
+        if d < best_d:
+            best, best_d = (cx, cy), d
+    return np.array(best)

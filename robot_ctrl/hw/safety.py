@@ -71,8 +71,9 @@ from typing import Callable
 import numpy as np
 
 from robot_ctrl.hw.adapter import HardwareAdapter, HardwareFault
+from robot_ctrl.hw.command_filter import FLAG_KINDS, filter_command
 from robot_ctrl.hw.safety_limits import SafetyLimits
-from robot_ctrl.hw.servo_torque import bound_servo_torque, servo_torque
+from robot_ctrl.hw.servo_torque import bound_servo_torque
 from robot_ctrl.hw.types import CommandError, JointCommand, JointState, LifecycleState
 
 S = LifecycleState
@@ -109,6 +110,9 @@ class SafetyLayer(HardwareAdapter):
             raise ValueError(f"SafetyLimits are for {len(limits.lower)} joints, the backend has {backend.nj}")
         self.backend = backend
         self.limits = limits
+        self._filter_limits = tuple(np.ascontiguousarray(a, dtype=float) for a in (
+            limits.lower, limits.upper, limits.kp_max, limits.kd_max, limits.step_limit, limits.velocity,
+            limits.effort))
         self.clock = clock if clock is not None else self._state_time
         self._latest_t = 0.0  # time of the last good state read [s]
         self.interventions: Counter[str] = Counter()
@@ -392,37 +396,24 @@ class SafetyLayer(HardwareAdapter):
             self._state = S.FAULT
 
     def _filter(self, cmd: JointCommand) -> JointCommand:
-        # Every control tick passes here: ufuncs rather than np.clip / np.any (their Python wrappers
-        # cost more than the work on a few dozen joints). The command was validated finite.
-        lim, state = self.limits, self._last_good
-        demand = servo_torque(cmd.q, cmd.dq, cmd.kp, cmd.kd, cmd.tau_ff, state.q, state.dq)
-        np.maximum(self.demanded_peak, np.abs(demand), out=self.demanded_peak)
-        kp, kd = np.minimum(cmd.kp, lim.kp_max), np.minimum(cmd.kd, lim.kd_max)
-        if (kp != cmd.kp).any() or (kd != cmd.kd).any():
-            self._intervene("gain_clamped", f"joints {np.flatnonzero((kp != cmd.kp) | (kd != cmd.kd)).tolist()}")
-        q = np.minimum(np.maximum(cmd.q, lim.lower), lim.upper)
-        if (q != cmd.q).any():
-            self._intervene("position_clamped", f"joints {np.flatnonzero(q != cmd.q).tolist()}")
-        # From the last target as the controller's motion left it, not as the torque bound moved it
-        # towards the measured posture for one tick: the bound is no motion to limit.
+        # Every control tick passes here: one compiled pass (the command was validated finite).
+        state = self._last_good
         reference = self._last_target if self._last_target is not None else state.q
-        step = lim.step_limit
-        stepped = reference + np.minimum(np.maximum(q - reference, -step), step)
-        if (stepped != q).any():
-            self._intervene("position_step_limited", f"joints {np.flatnonzero(stepped != q).tolist()}")
-        q = self._last_target = np.minimum(np.maximum(stepped, lim.lower), lim.upper)
-        dq = np.minimum(np.maximum(cmd.dq, -lim.velocity), lim.velocity)
-        if (dq != cmd.dq).any():
-            self._intervene("velocity_clamped", f"joints {np.flatnonzero(dq != cmd.dq).tolist()}")
+        lim = self.limits
         ramp = min(1.0, (self._ticks + 1) * lim.control_dt / lim.soft_start) if lim.soft_start > 0 else 1.0
         self._ticks += 1
-        kp, tau_ff = kp * ramp * self._derate, cmd.tau_ff * ramp
-        effort = lim.effort * self._derate * (1.0 - WITHIN_EFFORT_MARGIN)
-        torque = servo_torque(q, dq, kp, kd, tau_ff, state.q, state.dq)
-        if (np.abs(torque) <= effort).all() and (np.abs(tau_ff) <= effort).all():
-            # Within the effort with a margin far above rounding: _bounded would return it unchanged.
-            return JointCommand(q=q, dq=dq, kp=kp, kd=kd, tau_ff=tau_ff)
-        return self._bounded(JointCommand(q=q, dq=dq, kp=kp, kd=kd, tau_ff=tau_ff))
+        q, dq, kp, kd, tau_ff, flags, within = filter_command(
+            *(np.asarray(a, dtype=float) for a in (cmd.q, cmd.dq, cmd.kp, cmd.kd, cmd.tau_ff)), state.q, state.dq,
+            reference, *self._filter_limits, self._derate, ramp, WITHIN_EFFORT_MARGIN, self.demanded_peak)
+        if flags.any():
+            for flag, kind in FLAG_KINDS:
+                joints = np.flatnonzero(flags & flag)
+                if joints.size:
+                    self._intervene(kind, f"joints {joints.tolist()}")
+        self._last_target = q
+        filtered = JointCommand(q=q, dq=dq, kp=kp, kd=kd, tau_ff=tau_ff)
+        # Within the effort with a margin far above rounding: _bounded would return it unchanged.
+        return filtered if within else self._bounded(filtered)
 
     def _bounded(self, cmd: JointCommand) -> JointCommand:
         """``cmd`` with its torque at the last good measured state within ± the (derated) effort."""

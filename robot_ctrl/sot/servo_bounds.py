@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 
+@njit(cache=True)
 def servo_velocity_bounds(q_ref: np.ndarray, q: np.ndarray, dq: np.ndarray, tau_ff: np.ndarray, kp: np.ndarray,
                           kd: np.ndarray, budget: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
     """Bounds ``lo ≤ v ≤ hi`` on a joint's IK velocity ``v`` for one step of ``dt`` from the
@@ -21,10 +23,12 @@ def servo_velocity_bounds(q_ref: np.ndarray, q: np.ndarray, dq: np.ndarray, tau_
     toward the joint. The IK integrates its own reference, so this is what keeps that reference
     within what the servo can follow: a velocity step ``Δv`` costs ``kd Δv`` of torque at once (a
     task switching on, a joint leaving its soft limit), a lagging joint ``kp × lag``. Arrays are per
-    joint; a joint with ``kp dt + kd = 0`` gets no bound (±∞)."""
-    slope = kp * dt + kd
-    c = kp * (q_ref - q) - kd * dq + tau_ff
-    with np.errstate(divide="ignore", invalid="ignore"):
-        lo = np.where(slope > 0, (-budget - c) / slope, -np.inf)
-        hi = np.where(slope > 0, (budget - c) / slope, np.inf)
+    joint; a joint with ``kp dt + kd = 0`` gets no bound (±∞). Compiled: it runs on every tick,
+    after the state is read."""
+    lo, hi = np.full(q.size, -np.inf), np.full(q.size, np.inf)
+    for i in range(q.size):
+        slope = kp[i] * dt + kd[i]
+        if slope > 0:
+            c = kp[i] * (q_ref[i] - q[i]) - kd[i] * dq[i] + tau_ff[i]
+            lo[i], hi[i] = (-budget[i] - c) / slope, (budget[i] - c) / slope
     return lo, hi
