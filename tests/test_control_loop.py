@@ -136,6 +136,33 @@ def test_sigterm_closes_the_hardware_and_exits_130(tmp_path):
     assert not (tmp_path / "report.json").exists()  # no half-written report
 
 
+def test_an_interrupt_inside_compiled_code_exits_130_in_one_line(monkeypatch, capsys):
+    """A signal that lands while a numba kernel calls back into Python surfaces as a SystemError
+    caused by the KeyboardInterrupt (seen with SIGTERM during the IK's KKT solve): still an
+    interrupt; any other SystemError is not."""
+    from robot_ctrl.cli import robot_runs
+
+    def interrupted_in_a_kernel(args):
+        try:
+            raise KeyboardInterrupt("SIGTERM")
+        except KeyboardInterrupt as interrupt:
+            try:
+                raise SystemError("<function _numba_unpickle> returned a result with an exception set") from interrupt
+            except SystemError as inner:
+                raise SystemError("CPUDispatcher(kkt_solution) returned a result with an exception set") from inner
+
+    monkeypatch.setattr(robot_runs, "_walk", interrupted_in_a_kernel)
+    assert main(["walk"]) == 130
+    assert capsys.readouterr().err == "robot-ctrl: interrupted (SIGTERM)\n"
+
+    def failed(args):
+        raise SystemError("a real failure")
+
+    monkeypatch.setattr(robot_runs, "_walk", failed)
+    with pytest.raises(SystemError, match="a real failure"):
+        main(["walk"])
+
+
 def test_the_pacers_record_stays_bounded_and_keeps_the_worst_tick():
     """A run of hours must not grow the pacer's record: the latest ticks are kept for the median and
     the 99th percentile, the count and the worst lateness over every tick."""

@@ -35,6 +35,11 @@ def _interrupt(signum, frame) -> None:
     raise KeyboardInterrupt(signal.Signals(signum).name)
 
 
+def _interrupted(exc: KeyboardInterrupt) -> int:
+    print(f"robot-ctrl: interrupted{f' ({exc})' if str(exc) else ''}", file=sys.stderr)
+    return 130
+
+
 def main(argv: list[str] | None = None) -> int:
     """Exit status: 0 done, 1 the robot fell, 2 bad input, 3 a hardware fault, 130 interrupted
     (Ctrl-C or SIGTERM: the hardware is closed on the way out, damping then disable)."""
@@ -52,8 +57,16 @@ def main(argv: list[str] | None = None) -> int:
         print(f"robot-ctrl: hardware fault: {exc}", file=sys.stderr)
         return 3
     except KeyboardInterrupt as exc:
-        print(f"robot-ctrl: interrupted{f' ({exc})' if str(exc) else ''}", file=sys.stderr)
-        return 130
+        return _interrupted(exc)
+    except SystemError as exc:
+        # A signal that lands while compiled code (numba) calls back into Python (to raise an
+        # exception it caught, say) comes out as a SystemError caused by the KeyboardInterrupt.
+        cause = exc.__cause__
+        while cause is not None and not isinstance(cause, KeyboardInterrupt):
+            cause = cause.__cause__
+        if cause is None:
+            raise
+        return _interrupted(cause)
     finally:
         if in_main_thread:
             signal.signal(signal.SIGTERM, previous)

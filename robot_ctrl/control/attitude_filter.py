@@ -26,9 +26,11 @@ the ankles' readings without any noise.
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 import pinocchio as pin
+from numba import njit
 
 from robot_ctrl.geometry import yaw_of
 from robot_ctrl.hw.types import JointState
@@ -39,13 +41,53 @@ TIME_CONSTANT = 1.0
 #: [s] a gap between states longer than this restarts the filter on the reading
 RESTART_GAP = 0.1
 
+IDENTITY = np.array([0.0, 0.0, 0.0, 1.0])  # quaternion (x, y, z, w)
 
-def attitude_step(previous: np.ndarray, turn: np.ndarray, reading: np.ndarray, gain: float) -> np.ndarray:
-    """``R̂_k = P Exp(a Log(Pᵀ R_k))`` with ``P = R̂_{k−1} ΔR``: rotation matrices, ``ΔR = Exp(dt ω̄_k)``
-    the gyro's turn over the tick, ω̄_k its mean rate over it in the body frame (``JointState``;
-    Mahony et al. 2008, eq. 13, k_I = 0)."""
-    predicted = previous @ turn
-    return predicted @ pin.exp3(gain * pin.log3(predicted.T @ reading))
+
+@njit(cache=True)
+def attitude_step(previous: np.ndarray, turned: np.ndarray, reading: np.ndarray, rate: np.ndarray, dt: float,
+                  gain: float) -> tuple[np.ndarray, np.ndarray]:
+    """``R̂_k = P Exp(a Log(Pᵀ R_k))`` with ``P = R̂_{k−1} ΔR``, ``ΔR = Exp(dt ω̄_k)`` the gyro's turn
+    over the tick, ω̄_k (``rate``) its mean rate over it in the body frame (``JointState``; Mahony et
+    al. 2008, eq. 13, k_I = 0), in unit quaternions (x, y, z, w): ``previous`` R̂_{k−1}, ``reading``
+    R_k (normalized here), ``turned`` the gyro's rotation so far. Returns ``(R̂_k, turned ΔR)``.
+    Compiled: it runs on every tick, where Pinocchio's and numpy's per-call costs are most of it."""
+    turn = _quat_exp(dt * rate[0], dt * rate[1], dt * rate[2])
+    predicted = _quat_mul(previous, turn)
+    r = reading / math.sqrt(reading @ reading)
+    error = _quat_mul(np.array([-predicted[0], -predicted[1], -predicted[2], predicted[3]]), r)
+    ex, ey, ez = _quat_log(error)
+    estimate = _quat_mul(predicted, _quat_exp(gain * ex, gain * ey, gain * ez))
+    estimate /= math.sqrt(estimate @ estimate)
+    return (estimate if estimate[3] >= 0.0 else -estimate), _quat_mul(turned, turn)
+
+
+@njit(cache=True)
+def _quat_mul(a, b):
+    """Hamilton product ``a b`` of quaternions (x, y, z, w)."""
+    ax, ay, az, aw = a[0], a[1], a[2], a[3]
+    bx, by, bz, bw = b[0], b[1], b[2], b[3]
+    return np.array([aw * bx + ax * bw + ay * bz - az * by, aw * by - ax * bz + ay * bw + az * bx,
+                     aw * bz + ax * by - ay * bx + az * bw, aw * bw - ax * bx - ay * by - az * bz])
+
+
+@njit(cache=True)
+def _quat_exp(x, y, z):
+    """``Exp`` of the rotation vector (x, y, z) [rad]: ``(sin(θ/2) u, cos(θ/2))``, θ u = (x, y, z)."""
+    theta = math.sqrt(x * x + y * y + z * z)
+    k = 0.5 - theta * theta / 48.0 if theta < 1e-4 else math.sin(0.5 * theta) / theta  # sin(θ/2) / θ
+    return np.array([k * x, k * y, k * z, math.cos(0.5 * theta)])
+
+
+@njit(cache=True)
+def _quat_log(q):
+    """``Log`` of a unit quaternion (x, y, z, w): the rotation vector θ u of the shorter way round
+    (θ ≤ π), with ``θ = 2 atan2(|v|, |w|)``; well defined at 0 (θ / |v| → 2 / |w|) and at π."""
+    sign = 1.0 if q[3] >= 0.0 else -1.0
+    x, y, z, w = sign * q[0], sign * q[1], sign * q[2], sign * q[3]
+    n = math.sqrt(x * x + y * y + z * z)
+    k = 2.0 * math.atan2(n, w) / n if n > 1e-12 else 2.0 / w
+    return k * x, k * y, k * z
 
 
 class AttitudeFilter:
@@ -55,15 +97,15 @@ class AttitudeFilter:
         self.time_constant = time_constant
         self._t: float | None = None  # time of the last reading [s]
         self._n = 0  # readings since the filter (re)started
-        self._attitude: np.ndarray | None = None  # the estimate (world from base)
-        self._turned = np.eye(3)  # the gyro's rotation since the first reading (start base from base)
+        self._attitude: np.ndarray | None = None  # the estimate (world from base), quaternion (x, y, z, w)
+        self._turned = IDENTITY  # the gyro's rotation since the first reading (start base from base), the same
         self._start_position: np.ndarray | None = None  # the base position of the first reading [m]
         self._start_pose: np.ndarray | None = None  # start_pose since the last reading (asked for many times a tick)
 
     @property
     def start_attitude(self) -> np.ndarray | None:
         """The base orientation at the first reading (world from base), refined by every reading since."""
-        return None if self._attitude is None else self._attitude @ self._turned.T
+        return None if self._attitude is None else _matrix(self._attitude) @ _matrix(self._turned).T
 
     @property
     def start_pose(self) -> np.ndarray | None:
@@ -80,21 +122,19 @@ class AttitudeFilter:
         """``state`` with its base orientation replaced by the filtered estimate."""
         if state.base_quat_xyzw is None:
             return state
-        reading = _matrix(state.base_quat_xyzw)
+        reading = np.asarray(state.base_quat_xyzw, dtype=float)
         self._start_pose = None
         dt = 0.0 if self._t is None else state.t - self._t
         self._t = state.t
         if self._attitude is None or state.base_angvel is None or not 0.0 < dt <= RESTART_GAP:
-            self._n, self._attitude, self._turned = 1, reading, np.eye(3)
+            self._n, self._attitude, self._turned = 1, reading / np.linalg.norm(reading), IDENTITY
             self._start_position = None if state.base_pos is None else np.array(state.base_pos, dtype=float)
             return state
         self._n += 1
-        turn = pin.exp3(dt * np.asarray(state.base_angvel))  # the gyro's mean over the period
-        self._turned = self._turned @ turn
-        self._attitude = attitude_step(self._attitude, turn, reading,
-                                       max(1.0 / self._n, min(1.0, dt / self.time_constant)))
-        x, y, z, w = pin.Quaternion(self._attitude).coeffs()
-        return dataclasses.replace(state, base_quat_xyzw=np.array([x, y, z, w]))
+        self._attitude, self._turned = attitude_step(self._attitude, self._turned, reading,
+                                                     np.asarray(state.base_angvel, dtype=float), dt,
+                                                     max(1.0 / self._n, min(1.0, dt / self.time_constant)))
+        return dataclasses.replace(state, base_quat_xyzw=self._attitude.copy())
 
 
 def _matrix(quat_xyzw: np.ndarray) -> np.ndarray:

@@ -28,23 +28,7 @@ COLLINEAR = 1e-12
 
 def convex_hull(points: list[tuple[float, float]]) -> list[tuple[float, float]]:
     """Counter-clockwise convex hull of 2D points (Andrew's monotone chain)."""
-    pts = sorted(points)
-    if len(pts) <= 2:
-        return pts
-
-    def cross(o, a, b):
-        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
-
-    lower, upper = [], []
-    for p in pts:
-        while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= COLLINEAR:
-            lower.pop()
-        lower.append(p)
-    for p in reversed(pts):
-        while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= COLLINEAR:
-            upper.pop()
-        upper.append(p)
-    return lower[:-1] + upper[:-1]
+    return [tuple(p) for p in _hull(np.array(points, dtype=float).reshape(-1, 2)).tolist()]
 
 
 @dataclass(frozen=True)
@@ -56,9 +40,7 @@ class SupportPolygon:
     @classmethod
     def of_soles(cls, soles: list[tuple[np.ndarray, float]], length: float, width: float) -> "SupportPolygon":
         """Convex hull of sole rectangles given as (centre (2,), yaw)."""
-        if len(soles) == 1:  # a rectangle's corners are already in counter-clockwise order
-            return cls(np.array(sole_corners(soles[0][0], soles[0][1], length, width)))
-        return cls(np.array(convex_hull([p for c, yaw in soles for p in sole_corners(c, yaw, length, width)])))
+        return cls(_sole_hull(np.array([(float(c[0]), float(c[1]), float(yaw)) for c, yaw in soles]), length, width))
 
     @cached_property
     def halfplanes(self) -> tuple[np.ndarray, np.ndarray]:
@@ -117,3 +99,49 @@ def _closest_boundary_point(vertices, p):
         if d < best_d:
             best, best_d = (cx, cy), d
     return np.array(best)
+
+
+@njit(cache=True)
+def _hull(points):
+    """Counter-clockwise convex hull of ``points`` (n, 2) (Andrew's monotone chain): the points
+    sorted by x then y, the lower chain, then the upper; a turn of at most ``COLLINEAR`` drops the
+    middle vertex."""
+    pts = points.copy()
+    n = pts.shape[0]
+    for i in range(1, n):  # insertion sort, lexicographic: a hull is of a few soles' corners
+        x, y = pts[i, 0], pts[i, 1]
+        j = i - 1
+        while j >= 0 and (pts[j, 0] > x or (pts[j, 0] == x and pts[j, 1] > y)):
+            pts[j + 1] = pts[j]
+            j -= 1
+        pts[j + 1, 0], pts[j + 1, 1] = x, y
+    if n <= 2:
+        return pts
+    chain = np.empty((2 * n, 2))
+    m = 0
+    for half in range(2):
+        start = m
+        for k in range(n):
+            i = k if half == 0 else n - 1 - k
+            px, py = pts[i, 0], pts[i, 1]
+            while m - start >= 2 and ((chain[m - 1, 0] - chain[m - 2, 0]) * (py - chain[m - 2, 1])
+                                      - (chain[m - 1, 1] - chain[m - 2, 1]) * (px - chain[m - 2, 0])) <= COLLINEAR:
+                m -= 1
+            chain[m, 0], chain[m, 1] = px, py
+            m += 1
+        m -= 1  # each chain's last point starts the other
+    return chain[:m].copy()
+
+
+@njit(cache=True)
+def _sole_hull(soles, length, width):
+    """Counter-clockwise hull of sole rectangles, ``soles`` (k, 3): centre x, y and yaw; each
+    rectangle's corners as :func:`sole_corners` gives them (one rectangle: those corners)."""
+    hl, hw = 0.5 * length, 0.5 * width
+    corners = np.empty((4 * soles.shape[0], 2))
+    for k in range(soles.shape[0]):
+        cx, cy = soles[k, 0], soles[k, 1]
+        c, s = math.cos(soles[k, 2]), math.sin(soles[k, 2])
+        for j, (x, y) in enumerate(((hl, hw), (-hl, hw), (-hl, -hw), (hl, -hw))):
+            corners[4 * k + j, 0], corners[4 * k + j, 1] = cx + c * x - s * y, cy + s * x + c * y
+    return corners if soles.shape[0] == 1 else _hull(corners)

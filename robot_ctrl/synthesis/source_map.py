@@ -14,9 +14,11 @@ Gaussian kernel; kernel ridge regression is the same model class with a closed-f
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 
 @dataclass(frozen=True)
@@ -43,16 +45,32 @@ class SourceMap:
     def delayed(self, x: np.ndarray, rotations: np.ndarray) -> np.ndarray:
         """``s_k(t − τ_nk)`` for every channel n and source k: rotate the oscillator states ``x``
         (K, 2), one per source, by ``rotations`` (N, K) [rad] and evaluate source k: (N, K)."""
-        # The centers c_j lie on the unit circle: with ψ = θ + φ the rotated state's angle,
-        # −‖R(φ)x − c_j‖² / 2σ² = (r / σ²) (cos ψ, sin ψ)·c_j − (r² + 1) / 2σ², one trigonometric pair per
-        # (channel, source) rather than a cosine per center.
-        r = np.hypot(x[:, 0], x[:, 1])
-        psi = np.arctan2(x[:, 1], x[:, 0]) + rotations  # (N, K)
-        scale = r / self.sigma**2
-        exponent = np.multiply.outer(np.cos(psi) * scale, self.centers[:, 0])  # (N, K, M)
-        exponent += np.multiply.outer(np.sin(psi) * scale, self.centers[:, 1])
-        exponent -= ((r * r + 1) / (2 * self.sigma**2))[:, None]
-        return np.einsum("nkm,km->nk", np.exp(exponent), self.coefficients)
+        return _delayed(np.asarray(x, dtype=float), np.asarray(rotations, dtype=float), self.centers,
+                        self.coefficients, self.sigma)
+
+
+@njit(cache=True)
+def _delayed(x, rotations, centers, coefficients, sigma):
+    """:meth:`SourceMap.delayed`, compiled: the synthesis evaluates it on every control tick and
+    through every preview, N × K × M kernel terms.
+
+    The centers c_j lie on the unit circle: with ψ = θ + φ the rotated state's angle and r its
+    radius, −‖R(φ)x − c_j‖² / 2σ² = (r / σ²) (cos ψ, sin ψ)·c_j − (r² + 1) / 2σ², one trigonometric
+    pair per (channel, source) rather than a cosine per center."""
+    n_channels, n_sources = rotations.shape
+    out = np.empty((n_channels, n_sources))
+    inverse = 1.0 / (sigma * sigma)
+    for k in range(n_sources):
+        r = math.hypot(x[k, 0], x[k, 1])
+        theta, scale, offset = math.atan2(x[k, 1], x[k, 0]), r * inverse, (r * r + 1.0) * 0.5 * inverse
+        for n in range(n_channels):
+            psi = theta + rotations[n, k]
+            a, b = math.cos(psi) * scale, math.sin(psi) * scale
+            total = 0.0
+            for j in range(centers.shape[0]):
+                total += math.exp(a * centers[j, 0] + b * centers[j, 1] - offset) * coefficients[k, j]
+            out[n, k] = total
+    return out
 
 
 def delay_rotations(delays: np.ndarray, T: int) -> np.ndarray:

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robot_ctrl.synthesis.oscillator import phase, rk4_step, star_coupled
+from robot_ctrl.synthesis.oscillator import phase, star_step
 from robot_ctrl.synthesis.primitives import ActionParams, WalkReachPrimitives
 from robot_ctrl.synthesis.step_planning import BETA, Action, blend_nonperiodic, blend_weight, plan_steps
 
@@ -308,10 +308,10 @@ def _advance(primitives: WalkReachPrimitives, plan: list[ActionParams], c: _Curs
 
 
 def _step_oscillators(plan: list[ActionParams], c: _Cursor, dt: float) -> None:
-    b = _blend(plan, c.index, float(phase(c.x[0])))
-    omega = (1 - b.alpha) * plan[b.prev].omega + b.alpha * plan[b.post].omega
     before = float(phase(c.x[0]))
-    c.x = rk4_step(lambda x: star_coupled(x, omega, FOLLOWER_COUPLING), c.x, dt)
+    b = _blend(plan, c.index, before)
+    omega = (1 - b.alpha) * plan[b.prev].omega + b.alpha * plan[b.post].omega
+    c.x = star_step(c.x, omega, FOLLOWER_COUPLING, dt)
     if float(phase(c.x[0])) < before - np.pi:  # the leader's phase wrapped through 0
         c.index += 1
         c.finished = c.index >= len(plan)
