@@ -11,11 +11,12 @@ from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
+from numba import njit
 
 from robot_ctrl.geometry import GRAVITY, SIDES, base_pose_xy_yaw
 from robot_ctrl.geometry.support_polygon import SupportPolygon
 from robot_ctrl.hw.types import JointState
-from robot_ctrl.robot.model import RobotModel, configuration
+from robot_ctrl.robot.model import RobotModel, measured_configuration
 from robot_ctrl.wpg.lipm import dcm
 
 
@@ -44,15 +45,12 @@ class StateEstimator:
         self.threshold = contact_threshold * robot.mass * GRAVITY
         self._sole_frames = {s: robot.frame_ids[f"{s}_foot"] for s in SIDES}
         self._hand_frames = {s: robot.frame_ids[f"{s}_hand"] for s in SIDES}
+        self._sole_offset = np.asarray(robot.config.foot.center_offset, dtype=float)
 
     def estimate(self, state: JointState) -> Estimate:
         r = self.robot
-        q = configuration(r, state.base_pos, state.base_quat_xyzw, state.q)
-        rot = pin.Quaternion(state.base_quat_xyzw[3], *state.base_quat_xyzw[:3]).matrix()
-        v = np.zeros(r.pin.nv)
-        v[:3] = rot.T @ state.base_linvel  # Pinocchio's free-flyer velocity is in the base frame
-        v[3:6] = state.base_angvel
-        v[r.v_index] = state.dq
+        q, v = measured_configuration(r, state.base_pos, state.base_quat_xyzw, state.base_linvel, state.base_angvel,
+                                      state.q, state.dq)
         pin.forwardKinematics(r.pin, self.data, q, v)
         pin.updateFramePlacements(r.pin, self.data)
         com = pin.centerOfMass(r.pin, self.data, pin.KinematicLevel.VELOCITY, False)  # reuses the kinematics above
@@ -60,42 +58,49 @@ class StateEstimator:
         soles = {s: self.data.oMf[self._sole_frames[s]].copy() for s in SIDES}
         wrench = state.foot_wrench or {}
         down = [s for s in SIDES if s in wrench and wrench[s][2] > self.threshold]
-        zmp = measured_zmp([(soles[s], wrench[s]) for s in down])
-        support = None
+        zmp = support = None
         if down:
+            placements = np.array([soles[s].homogeneous for s in down])
+            zmp = measured_zmp(placements, np.array([wrench[s] for s in down]))
             foot = r.config.foot
-            support = SupportPolygon.of_soles([_sole_centre(soles[s], foot.center_offset) for s in down],
-                                              foot.length, foot.width)
+            support = SupportPolygon.of_soles(sole_centres(placements, self._sole_offset), foot.length, foot.width)
         hands = {s: self.data.oMf[f].translation.copy() for s, f in self._hand_frames.items()}
         return Estimate(com.copy(), com_velocity, soles, {s: s in down for s in SIDES}, zmp, support, hands,
                         base_pose_xy_yaw(state.base_pos, state.base_quat_xyzw), q)
 
 
-def _sole_centre(pose: pin.SE3, offset) -> tuple[tuple[float, float], float]:
-    """Floor position of the sole rectangle's centre (``offset`` (2,) in the sole frame) and the
-    sole's heading [rad]."""
-    (r00, r01, _), (r10, r11, _), _ = pose.rotation.tolist()
-    x, y, _ = pose.translation.tolist()
-    ox, oy = offset
-    return (x + r00 * ox + r01 * oy, y + r10 * ox + r11 * oy), math.atan2(r10, r00)
+# Compiled: both run on every tick, on the serial path between the read and the command.
+@njit(cache=True)
+def sole_centres(placements: np.ndarray, offset: np.ndarray) -> np.ndarray:
+    """Floor position (x, y) of each sole rectangle's centre (``offset`` (2,) in the sole frame) and
+    the sole's heading [rad], (k, 3), from the soles' world placements (k, 4, 4)."""
+    out = np.empty((placements.shape[0], 3))
+    for i in range(placements.shape[0]):
+        T = placements[i]
+        out[i, 0] = T[0, 3] + T[0, 0] * offset[0] + T[0, 1] * offset[1]
+        out[i, 1] = T[1, 3] + T[1, 0] * offset[0] + T[1, 1] * offset[1]
+        out[i, 2] = math.atan2(T[1, 0], T[0, 0])
+    return out
 
 
-def measured_zmp(contacts: list[tuple[pin.SE3, np.ndarray]]) -> np.ndarray | None:
-    """ZMP on the floor plane z = 0 from sole-frame contact wrenches ``(pose, [f, m])``.
+@njit(cache=True)
+def measured_zmp(placements: np.ndarray, wrenches: np.ndarray) -> np.ndarray | None:
+    """ZMP on the floor plane z = 0 from sole-frame contact wrenches ``[f, m]`` (k, 6) at the soles'
+    world placements (k, 4, 4).
 
     Each wrench (sole frame, about the sole origin p) is moved to the world origin, ``F = R f``,
-    ``M = R m + p × F``; with their sums, the ZMP on z = 0 is ``(−M_y / F_z, M_x / F_z)``.
-    Plain floats: numpy and Pinocchio calls cost more than the arithmetic here.
+    ``M = R m + p × F``; with their sums, the ZMP on z = 0 is ``(−M_y / F_z, M_x / F_z)``; None when
+    ``F_z`` ≤ 1e-6 N.
     """
     fz = mx = my = 0.0
-    for pose, w in contacts:
-        R = pose.rotation.tolist()
-        px, py, pz = pose.translation.tolist()
-        f0, f1, f2, m0, m1, m2 = w.tolist()
-        Fx, Fy, Fz = (row[0] * f0 + row[1] * f1 + row[2] * f2 for row in R)
+    for i in range(placements.shape[0]):
+        T, w = placements[i], wrenches[i]
+        Fx = T[0, 0] * w[0] + T[0, 1] * w[1] + T[0, 2] * w[2]
+        Fy = T[1, 0] * w[0] + T[1, 1] * w[1] + T[1, 2] * w[2]
+        Fz = T[2, 0] * w[0] + T[2, 1] * w[1] + T[2, 2] * w[2]
         fz += Fz
-        mx += R[0][0] * m0 + R[0][1] * m1 + R[0][2] * m2 + py * Fz - pz * Fy
-        my += R[1][0] * m0 + R[1][1] * m1 + R[1][2] * m2 + pz * Fx - px * Fz
+        mx += T[0, 0] * w[3] + T[0, 1] * w[4] + T[0, 2] * w[5] + T[1, 3] * Fz - T[2, 3] * Fy
+        my += T[1, 0] * w[3] + T[1, 1] * w[4] + T[1, 2] * w[5] + T[2, 3] * Fx - T[0, 3] * Fz
     if fz <= 1e-6:
         return None
     return np.array([-my / fz, mx / fz])

@@ -38,9 +38,13 @@ class SupportPolygon:
     vertices: np.ndarray  # (k, 2)
 
     @classmethod
-    def of_soles(cls, soles: list[tuple[np.ndarray, float]], length: float, width: float) -> "SupportPolygon":
-        """Convex hull of sole rectangles given as (centre (2,), yaw)."""
-        return cls(_sole_hull(np.array([(float(c[0]), float(c[1]), float(yaw)) for c, yaw in soles]), length, width))
+    def of_soles(cls, soles: list[tuple[np.ndarray, float]] | np.ndarray, length: float,
+                 width: float) -> "SupportPolygon":
+        """Convex hull of sole rectangles given as (centre (2,), yaw) pairs, or as the rows (x, y, yaw)
+        of an array (k, 3)."""
+        if not isinstance(soles, np.ndarray):
+            soles = np.array([(float(c[0]), float(c[1]), float(yaw)) for c, yaw in soles])
+        return cls(_sole_hull(soles, length, width))
 
     @cached_property
     def halfplanes(self) -> tuple[np.ndarray, np.ndarray]:

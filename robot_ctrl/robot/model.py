@@ -8,6 +8,7 @@ the caller: ``model.pin.createData()``.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
@@ -15,6 +16,7 @@ from typing import Mapping
 
 import numpy as np
 import pinocchio as pin
+from numba import njit
 
 from robot_ctrl.robot.config import AddedFrame, ConfigError, RobotConfig, load_robot_config
 from robot_ctrl.robot.description import RobotFiles, read_srdf, robot_files
@@ -135,6 +137,41 @@ def add_frame(model: pin.Model, frame: AddedFrame) -> None:
     offset = pin.SE3(pin.rpy.rpyToMatrix(*frame.rpy), np.array(frame.xyz))
     model.addFrame(pin.Frame(frame.name, parent.parentJoint, parent_id, parent.placement * offset,
                              pin.FrameType.OP_FRAME))
+
+
+def measured_configuration(robot: RobotModel, base_pos: np.ndarray, base_quat_xyzw: np.ndarray,
+                           base_linvel: np.ndarray, base_angvel: np.ndarray, joints: np.ndarray,
+                           joint_velocities: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Pinocchio's ``(q, v)`` from a measured state: the base's world position and orientation, its
+    linear velocity in the world frame and angular velocity in the base frame (an IMU's gyro), and
+    the joints in the robot's order. Pinocchio's free-flyer velocity is in the base frame:
+    ``v[:3] = Rᵀ ċ_world``. Compiled: the estimator asks it on every tick."""
+    return _measured_configuration(robot.q_half_sitting, robot.q_index, robot.v_index, robot.pin.nv,
+                                   *(np.asarray(a, dtype=float) for a in (base_pos, base_quat_xyzw, base_linvel,
+                                                                          base_angvel, joints, joint_velocities)))
+
+
+@njit(cache=True)
+def _measured_configuration(q_template, q_index, v_index, nv, base_pos, quat, linvel, angvel, joints, velocities):
+    q = q_template.copy()
+    norm = math.sqrt(quat[0] ** 2 + quat[1] ** 2 + quat[2] ** 2 + quat[3] ** 2)
+    x, y, z, w = quat[0] / norm, quat[1] / norm, quat[2] / norm, quat[3] / norm
+    q[0], q[1], q[2] = base_pos[0], base_pos[1], base_pos[2]
+    q[3], q[4], q[5], q[6] = x, y, z, w
+    for i in range(q_index.size):
+        q[q_index[i]] = joints[i]
+    # Rᵀ ċ, R the rotation of the unit quaternion (x, y, z, w): its columns are the base's axes
+    r00, r10, r20 = 1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + z * w), 2.0 * (x * z - y * w)
+    r01, r11, r21 = 2.0 * (x * y - z * w), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z + x * w)
+    r02, r12, r22 = 2.0 * (x * z + y * w), 2.0 * (y * z - x * w), 1.0 - 2.0 * (x * x + y * y)
+    v = np.zeros(nv)
+    v[0] = r00 * linvel[0] + r10 * linvel[1] + r20 * linvel[2]
+    v[1] = r01 * linvel[0] + r11 * linvel[1] + r21 * linvel[2]
+    v[2] = r02 * linvel[0] + r12 * linvel[1] + r22 * linvel[2]
+    v[3], v[4], v[5] = angvel[0], angvel[1], angvel[2]
+    for i in range(v_index.size):
+        v[v_index[i]] = velocities[i]
+    return q, v
 
 
 def configuration(robot: RobotModel, base_pos: np.ndarray, base_quat_xyzw: np.ndarray, joints: np.ndarray) -> np.ndarray:
