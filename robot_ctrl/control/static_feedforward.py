@@ -21,12 +21,10 @@ from __future__ import annotations
 
 import numpy as np
 import pinocchio as pin
-from scipy.linalg import lapack
+from numba import njit
 
 from robot_ctrl.geometry import SIDES
 from robot_ctrl.robot.model import RobotModel, configuration
-
-_posv = lapack.dposv
 
 
 def static_torques(model: pin.Model, data: pin.Data, q: np.ndarray, sole_frames: list[int],
@@ -37,7 +35,6 @@ def static_torques(model: pin.Model, data: pin.Data, q: np.ndarray, sole_frames:
     world frame, adds the inertial load of the whole body accelerating with the CoM.
     """
     alpha = np.asarray(shares, dtype=float)
-    alpha = alpha / alpha.sum()
     gravity = model.gravity.linear.copy()
     effective = gravity if com_acceleration is None else gravity - com_acceleration
     model.gravity.linear = effective
@@ -47,19 +44,28 @@ def static_torques(model: pin.Model, data: pin.Data, q: np.ndarray, sole_frames:
         model.gravity.linear = gravity
     weight = pin.computeTotalMass(model) * float(np.sqrt(effective @ effective))
     pin.computeJointJacobians(model, data, q)
-    pin.updateFramePlacements(model, data)
     J = np.vstack([pin.getFrameJacobian(model, data, f, pin.LOCAL) for f in sole_frames])  # (6k, nv)
-    f_ref = np.zeros(J.shape[0])
-    f_ref[2::6] = alpha * weight
-    Jb = J[:, :6].T  # (6, 6k)
-    W = np.repeat(alpha, 6)
-    residual = g[:6] - Jb @ f_ref
-    _, y, info = _posv((Jb * W) @ Jb.T, residual)  # symmetric positive definite (6 × 6)
-    if info != 0:
-        raise np.linalg.LinAlgError(f"static feedforward: singular contact Jacobian (LAPACK posv info {info})")
-    f = f_ref + W * (Jb.T @ y)
-    tau = g - J.T @ f
+    tau, f = _balanced(J, g, alpha, weight)
     return tau, list(f.reshape(-1, 6))
+
+
+@njit(cache=True)
+def _balanced(J, g, shares, weight):
+    """``(τ, f)`` of the module docstring from the soles' stacked LOCAL Jacobians ``J`` (6k, nv), the
+    generalized gravity ``g`` (nv,), the contact shares (k,) and the weight [N]. Compiled: the
+    walking controller asks it on every tick, a handful of small products."""
+    alpha = shares / shares.sum()
+    rows = J.shape[0]
+    f_ref = np.zeros(rows)
+    W = np.empty(rows)
+    for i in range(alpha.size):
+        f_ref[6 * i + 2] = alpha[i] * weight
+        W[6 * i:6 * i + 6] = alpha[i]
+    Jb = np.ascontiguousarray(J[:, :6].T)  # (6, 6k)
+    residual = g[:6] - Jb @ f_ref
+    y = np.linalg.solve((Jb * W) @ Jb.T, residual)  # symmetric positive definite (6 × 6)
+    f = f_ref + W * (Jb.T @ y)
+    return g - J.T @ f, f
 
 
 def weight_shares(com_xy: np.ndarray, left_xy: np.ndarray, right_xy: np.ndarray, floor: float = 0.02) -> tuple[float, float]:
