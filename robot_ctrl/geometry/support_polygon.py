@@ -12,12 +12,9 @@ from numba import njit
 
 def sole_corners(center, yaw: float, length: float, width: float) -> list[tuple[float, float]]:
     """The four corners of a sole rectangle centred at ``center`` (2,) with heading ``yaw``,
-    counter-clockwise from the front left. Plain floats: numpy costs more than the arithmetic
-    on arrays this small (the estimator builds a polygon every tick, the MPC one per sample)."""
-    cx, cy = float(center[0]), float(center[1])
-    c, s = math.cos(yaw), math.sin(yaw)
-    hl, hw = 0.5 * length, 0.5 * width
-    return [(cx + c * x - s * y, cy + s * x + c * y) for x, y in ((hl, hw), (-hl, hw), (-hl, -hw), (hl, -hw))]
+    counter-clockwise from the front left."""
+    sole = np.array([[float(center[0]), float(center[1]), float(yaw)]])
+    return [tuple(p) for p in _corners(sole, length, width).tolist()]
 
 
 #: Turns smaller than this (cross product of the two edges, m²) count as straight: with edges of
@@ -48,22 +45,15 @@ class SupportPolygon:
 
     @cached_property
     def halfplanes(self) -> tuple[np.ndarray, np.ndarray]:
-        v = self.vertices.tolist()
-        normals, offsets = [], []
-        for (ax, ay), (bx, by) in zip(v, v[1:] + v[:1]):
-            nx, ny = by - ay, ax - bx  # (dy, −dx) of the edge: outward for CCW order
-            norm = math.sqrt(nx * nx + ny * ny)
-            nx, ny = nx / norm, ny / norm
-            normals.append((nx, ny))
-            offsets.append(nx * ax + ny * ay)
-        return np.array(normals), np.array(offsets)
+        return _halfplanes(self.vertices)
 
     def contains(self, p: np.ndarray, tol: float = 1e-9) -> bool:
-        return _contains(self.vertices, p, tol)
+        H, h = self.halfplanes
+        return _inside(H, h, p, tol)
 
     def clamp(self, p: np.ndarray) -> np.ndarray:
         """``p`` (2,) if inside, else the closest point of the boundary."""
-        return p if _contains(self.vertices, p, 1e-9) else _closest_boundary_point(self.vertices, p)
+        return p if self.contains(p) else _closest_boundary_point(self.vertices, p)
 
     def distance_inside(self, p: np.ndarray) -> float:
         """Signed distance to the boundary: positive inside [m]."""
@@ -71,18 +61,28 @@ class SupportPolygon:
         return float(np.min(h - H @ p))
 
 
-# Compiled: the stabilizer asks them of a new polygon (the measured support) on every tick.
+# Compiled: the estimator builds a polygon, and the stabilizer asks it, on every tick.
 @njit(cache=True)
-def _contains(vertices, p, tol):
-    """``H p ≤ h + tol`` for every edge's outward unit normal (counter-clockwise ``vertices``)."""
+def _halfplanes(vertices):
+    """``(H, h)``: each edge's outward unit normal (its (dy, −dx) for counter-clockwise
+    ``vertices``) and offset, ``H p ≤ h`` inside."""
     k = vertices.shape[0]
+    H, h = np.empty((k, 2)), np.empty(k)
     for i in range(k):
-        ax, ay = vertices[i]
-        bx, by = vertices[(i + 1) % k]
+        ax, ay = vertices[i, 0], vertices[i, 1]
+        bx, by = vertices[(i + 1) % k, 0], vertices[(i + 1) % k, 1]
         nx, ny = by - ay, ax - bx
         norm = math.sqrt(nx * nx + ny * ny)
-        nx, ny = nx / norm, ny / norm
-        if nx * p[0] + ny * p[1] > nx * ax + ny * ay + tol:
+        H[i, 0], H[i, 1] = nx / norm, ny / norm
+        h[i] = H[i, 0] * ax + H[i, 1] * ay
+    return H, h
+
+
+@njit(cache=True)
+def _inside(H, h, p, tol):
+    """``H p ≤ h + tol``."""
+    for i in range(h.size):
+        if H[i, 0] * p[0] + H[i, 1] * p[1] > h[i] + tol:
             return False
     return True
 
@@ -138,9 +138,9 @@ def _hull(points):
 
 
 @njit(cache=True)
-def _sole_hull(soles, length, width):
-    """Counter-clockwise hull of sole rectangles, ``soles`` (k, 3): centre x, y and yaw; each
-    rectangle's corners as :func:`sole_corners` gives them (one rectangle: those corners)."""
+def _corners(soles, length, width):
+    """The corners (4k, 2) of sole rectangles, ``soles`` (k, 3): centre x, y and yaw; each
+    rectangle's four counter-clockwise from its front left."""
     hl, hw = 0.5 * length, 0.5 * width
     corners = np.empty((4 * soles.shape[0], 2))
     for k in range(soles.shape[0]):
@@ -148,4 +148,12 @@ def _sole_hull(soles, length, width):
         c, s = math.cos(soles[k, 2]), math.sin(soles[k, 2])
         for j, (x, y) in enumerate(((hl, hw), (-hl, hw), (-hl, -hw), (hl, -hw))):
             corners[4 * k + j, 0], corners[4 * k + j, 1] = cx + c * x - s * y, cy + s * x + c * y
+    return corners
+
+
+@njit(cache=True)
+def _sole_hull(soles, length, width):
+    """Counter-clockwise hull of sole rectangles, ``soles`` (k, 3) as for :func:`_corners` (one
+    rectangle: its corners, already in that order)."""
+    corners = _corners(soles, length, width)
     return corners if soles.shape[0] == 1 else _hull(corners)

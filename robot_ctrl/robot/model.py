@@ -146,6 +146,9 @@ def measured_configuration(robot: RobotModel, base_pos: np.ndarray, base_quat_xy
     linear velocity in the world frame and angular velocity in the base frame (an IMU's gyro), and
     the joints in the robot's order. Pinocchio's free-flyer velocity is in the base frame:
     ``v[:3] = Rᵀ ċ_world``. Compiled: the estimator asks it on every tick."""
+    if np.shape(joints) != (robot.nj,) or np.shape(joint_velocities) != (robot.nj,):
+        raise ValueError(f"measured_configuration: {np.shape(joints)} joint angles and {np.shape(joint_velocities)} "
+                         f"velocities, the robot has ({robot.nj},)")
     return _measured_configuration(robot.q_half_sitting, robot.q_index, robot.v_index, robot.pin.nv,
                                    *(np.asarray(a, dtype=float) for a in (base_pos, base_quat_xyzw, base_linvel,
                                                                           base_angvel, joints, joint_velocities)))
@@ -153,13 +156,8 @@ def measured_configuration(robot: RobotModel, base_pos: np.ndarray, base_quat_xy
 
 @njit(cache=True)
 def _measured_configuration(q_template, q_index, v_index, nv, base_pos, quat, linvel, angvel, joints, velocities):
-    q = q_template.copy()
-    norm = math.sqrt(quat[0] ** 2 + quat[1] ** 2 + quat[2] ** 2 + quat[3] ** 2)
-    x, y, z, w = quat[0] / norm, quat[1] / norm, quat[2] / norm, quat[3] / norm
-    q[0], q[1], q[2] = base_pos[0], base_pos[1], base_pos[2]
-    q[3], q[4], q[5], q[6] = x, y, z, w
-    for i in range(q_index.size):
-        q[q_index[i]] = joints[i]
+    q = _configuration(q_template, q_index, base_pos, quat, joints)
+    x, y, z, w = q[3], q[4], q[5], q[6]
     # Rᵀ ċ, R the rotation of the unit quaternion (x, y, z, w): its columns are the base's axes
     r00, r10, r20 = 1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + z * w), 2.0 * (x * z - y * w)
     r01, r11, r21 = 2.0 * (x * y - z * w), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z + x * w)
@@ -176,8 +174,19 @@ def _measured_configuration(q_template, q_index, v_index, nv, base_pos, quat, li
 
 def configuration(robot: RobotModel, base_pos: np.ndarray, base_quat_xyzw: np.ndarray, joints: np.ndarray) -> np.ndarray:
     """Pinocchio configuration from a world-frame base pose and joint angles in the robot's order."""
-    q = robot.q_half_sitting.copy()
-    q[:3] = base_pos
-    q[3:7] = base_quat_xyzw / np.linalg.norm(base_quat_xyzw)
-    q[robot.q_index] = joints
+    joints = np.asarray(joints, dtype=float)
+    if joints.shape != (robot.nj,):
+        raise ValueError(f"configuration: {joints.shape} joint angles, the robot has ({robot.nj},)")
+    return _configuration(robot.q_half_sitting, robot.q_index, np.asarray(base_pos, dtype=float),
+                          np.asarray(base_quat_xyzw, dtype=float), joints)
+
+
+@njit(cache=True)
+def _configuration(q_template, q_index, base_pos, quat, joints):
+    q = q_template.copy()
+    norm = math.sqrt(quat[0] ** 2 + quat[1] ** 2 + quat[2] ** 2 + quat[3] ** 2)
+    q[0], q[1], q[2] = base_pos[0], base_pos[1], base_pos[2]
+    q[3], q[4], q[5], q[6] = quat[0] / norm, quat[1] / norm, quat[2] / norm, quat[3] / norm
+    for i in range(q_index.size):
+        q[q_index[i]] = joints[i]
     return q
