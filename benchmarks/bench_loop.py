@@ -8,8 +8,7 @@ of the controller's tick: ``step`` (estimator, stabilizer, IK finish), ``write``
 handed to the robot's process), ``prepare`` of the next tick while the robot moves, and ``read``
 (the wait for the robot's period and state). For reference it also prints the physics-only factor
 (the robot standing under constant servo commands), with the backend in this process and in its
-own. A short walk before the timed one takes the first run's compilation of the numba kernels out of
-the figures. Run: ``python benchmarks/bench_loop.py``.
+own. Run: ``python benchmarks/bench_loop.py``.
 """
 
 from __future__ import annotations
@@ -69,13 +68,6 @@ def main() -> None:
     parser.add_argument("--json", action="store_true", help="print one JSON object as the last line")
     args = parser.parse_args()
     robot = load_robot("talos")
-    # The first run on a machine compiles the controller's numba kernels (seconds, once: they are
-    # cached): a short walk first, so that the figures below are the loop's own.
-    warm_up = SafetyLayer(MujocoBackend(robot), SafetyLimits.for_simulation(robot), clock=None)
-    try:
-        run_walk(robot, warm_up, WalkGoal(distance=0.2, speed=0.25), log=lambda _: None)
-    finally:
-        warm_up.close()
     timer = StageTimer()
     robot_process = RobotProcess(functools.partial(MujocoBackend, robot), robot.nj)
     robot_process.write = timer.wrap("write (command handed to the robot)", robot_process.write)

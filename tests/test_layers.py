@@ -4,8 +4,8 @@ import ast
 from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parent.parent / "robot_ctrl"
-LAYER = {"geometry": 0, "modes": 0, "robot": 1, "hw": 1, "wpg": 2, "sot": 2, "synthesis": 2, "crowd": 3,
-         "dynfilter": 3, "control": 4, "eval": 4, "scenarios": 5, "cli": 6}
+LAYER = {"geometry": 0, "modes": 0, "kernels": 0, "robot": 1, "hw": 1, "wpg": 2, "sot": 2, "synthesis": 2,
+         "crowd": 3, "dynfilter": 3, "control": 4, "eval": 4, "scenarios": 5, "cli": 6}
 
 
 def test_no_module_imports_from_a_higher_layer():

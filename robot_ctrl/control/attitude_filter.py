@@ -30,10 +30,10 @@ import math
 
 import numpy as np
 import pinocchio as pin
-from numba import njit
 
 from robot_ctrl.geometry import yaw_of
 from robot_ctrl.hw.types import JointState
+from robot_ctrl.kernels import FLOAT, VECTOR, kernel
 
 #: [s] the time constant τ (gain floor dt / τ)
 TIME_CONSTANT = 1.0
@@ -44,7 +44,7 @@ RESTART_GAP = 0.1
 IDENTITY = np.array([0.0, 0.0, 0.0, 1.0])  # quaternion (x, y, z, w)
 
 
-@njit(cache=True)
+@kernel((VECTOR, VECTOR, VECTOR, VECTOR, FLOAT, FLOAT))
 def attitude_step(previous: np.ndarray, turned: np.ndarray, reading: np.ndarray, rate: np.ndarray, dt: float,
                   gain: float) -> tuple[np.ndarray, np.ndarray]:
     """``R̂_k = P Exp(a Log(Pᵀ R_k))`` with ``P = R̂_{k−1} ΔR``, ``ΔR = Exp(dt ω̄_k)`` the gyro's turn
@@ -62,7 +62,7 @@ def attitude_step(previous: np.ndarray, turned: np.ndarray, reading: np.ndarray,
     return (estimate if estimate[3] >= 0.0 else -estimate), _quat_mul(turned, turn)
 
 
-@njit(cache=True)
+@kernel()
 def _quat_mul(a, b):
     """Hamilton product ``a b`` of quaternions (x, y, z, w)."""
     ax, ay, az, aw = a[0], a[1], a[2], a[3]
@@ -71,7 +71,7 @@ def _quat_mul(a, b):
                      aw * bz + ax * by - ay * bx + az * bw, aw * bw - ax * bx - ay * by - az * bz])
 
 
-@njit(cache=True)
+@kernel()
 def _quat_exp(x, y, z):
     """``Exp`` of the rotation vector (x, y, z) [rad]: ``(sin(θ/2) u, cos(θ/2))``, θ u = (x, y, z)."""
     theta = math.sqrt(x * x + y * y + z * z)
@@ -79,7 +79,7 @@ def _quat_exp(x, y, z):
     return np.array([k * x, k * y, k * z, math.cos(0.5 * theta)])
 
 
-@njit(cache=True)
+@kernel()
 def _quat_log(q):
     """``Log`` of a unit quaternion (x, y, z, w): the rotation vector θ u of the shorter way round
     (θ ≤ π), with ``θ = 2 atan2(|v|, |w|)``; well defined at 0 (θ / |v| → 2 / |w|) and at π."""

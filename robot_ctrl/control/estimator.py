@@ -11,11 +11,11 @@ from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
-from numba import njit
 
 from robot_ctrl.geometry import GRAVITY, SIDES, base_pose_xy_yaw
 from robot_ctrl.geometry.support_polygon import SupportPolygon
 from robot_ctrl.hw.types import JointState
+from robot_ctrl.kernels import MATRIX, STACK, VECTOR, kernel
 from robot_ctrl.robot.model import RobotModel, measured_configuration
 from robot_ctrl.wpg.lipm import dcm
 
@@ -70,7 +70,7 @@ class StateEstimator:
 
 
 # Compiled: both run on every tick, on the serial path between the read and the command.
-@njit(cache=True)
+@kernel((STACK, VECTOR))
 def sole_centres(placements: np.ndarray, offset: np.ndarray) -> np.ndarray:
     """Floor position (x, y) of each sole rectangle's centre (``offset`` (2,) in the sole frame) and
     the sole's heading [rad], (k, 3), from the soles' world placements (k, 4, 4)."""
@@ -83,7 +83,7 @@ def sole_centres(placements: np.ndarray, offset: np.ndarray) -> np.ndarray:
     return out
 
 
-@njit(cache=True)
+@kernel((STACK, MATRIX))
 def measured_zmp(placements: np.ndarray, wrenches: np.ndarray) -> np.ndarray | None:
     """ZMP on the floor plane z = 0 from sole-frame contact wrenches ``[f, m]`` (k, 6) at the soles'
     world placements (k, 4, 4).

@@ -21,9 +21,9 @@ from __future__ import annotations
 
 import numpy as np
 import pinocchio as pin
-from numba import njit
 
 from robot_ctrl.geometry import SIDES
+from robot_ctrl.kernels import FLOAT, MATRIX, VECTOR, kernel
 from robot_ctrl.robot.model import RobotModel, configuration
 
 
@@ -49,7 +49,7 @@ def static_torques(model: pin.Model, data: pin.Data, q: np.ndarray, sole_frames:
     return tau, list(f.reshape(-1, 6))
 
 
-@njit(cache=True)
+@kernel((MATRIX, VECTOR, VECTOR, FLOAT))
 def _balanced(J, g, shares, weight):
     """``(τ, f)`` of the module docstring from the soles' stacked LOCAL Jacobians ``J`` (6k, nv), the
     generalized gravity ``g`` (nv,), the contact shares (k,) and the weight [N]. Compiled: the

@@ -7,7 +7,8 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
-from numba import njit
+
+from robot_ctrl.kernels import FLOAT, MATRIX, VECTOR, kernel
 
 
 def sole_corners(center, yaw: float, length: float, width: float) -> list[tuple[float, float]]:
@@ -62,7 +63,7 @@ class SupportPolygon:
 
 
 # Compiled: the estimator builds a polygon, and the stabilizer asks it, on every tick.
-@njit(cache=True)
+@kernel((MATRIX,))
 def _halfplanes(vertices):
     """``(H, h)``: each edge's outward unit normal (its (dy, −dx) for counter-clockwise
     ``vertices``) and offset, ``H p ≤ h`` inside."""
@@ -78,7 +79,7 @@ def _halfplanes(vertices):
     return H, h
 
 
-@njit(cache=True)
+@kernel((MATRIX, VECTOR, VECTOR, FLOAT))
 def _inside(H, h, p, tol):
     """``H p ≤ h + tol``."""
     for i in range(h.size):
@@ -87,7 +88,7 @@ def _inside(H, h, p, tol):
     return True
 
 
-@njit(cache=True)
+@kernel((MATRIX, VECTOR))
 def _closest_boundary_point(vertices, p):
     """The point of the polygon's edges closest to ``p``."""
     k = vertices.shape[0]
@@ -105,7 +106,7 @@ def _closest_boundary_point(vertices, p):
     return np.array(best)
 
 
-@njit(cache=True)
+@kernel((MATRIX,))
 def _hull(points):
     """Counter-clockwise convex hull of ``points`` (n, 2) (Andrew's monotone chain): the points
     sorted by x then y, the lower chain, then the upper; a turn of at most ``COLLINEAR`` drops the
@@ -137,7 +138,7 @@ def _hull(points):
     return chain[:m].copy()
 
 
-@njit(cache=True)
+@kernel((MATRIX, FLOAT, FLOAT))
 def _corners(soles, length, width):
     """The corners (4k, 2) of sole rectangles, ``soles`` (k, 3): centre x, y and yaw; each
     rectangle's four counter-clockwise from its front left."""
@@ -151,7 +152,7 @@ def _corners(soles, length, width):
     return corners
 
 
-@njit(cache=True)
+@kernel((MATRIX, FLOAT, FLOAT))
 def _sole_hull(soles, length, width):
     """Counter-clockwise hull of sole rectangles, ``soles`` (k, 3) as for :func:`_corners` (one
     rectangle: its corners, already in that order)."""

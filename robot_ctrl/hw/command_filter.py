@@ -7,7 +7,8 @@ stays in numpy (``servo_torque.bound_servo_torque``).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from robot_ctrl.kernels import FLOAT, VECTOR, kernel
 
 #: Per-joint flags of :func:`filter_command`: what it changed.
 GAIN_CLAMPED, POSITION_CLAMPED, POSITION_STEP_LIMITED, VELOCITY_CLAMPED = 1, 2, 4, 8
@@ -15,7 +16,7 @@ FLAG_KINDS = ((GAIN_CLAMPED, "gain_clamped"), (POSITION_CLAMPED, "position_clamp
               (POSITION_STEP_LIMITED, "position_step_limited"), (VELOCITY_CLAMPED, "velocity_clamped"))
 
 
-@njit(cache=True)
+@kernel((*(VECTOR,) * 16, FLOAT, FLOAT, VECTOR))
 def filter_command(q_cmd, dq_cmd, kp_cmd, kd_cmd, tau_cmd, q_meas, dq_meas, reference, lower, upper, kp_max,
                    kd_max, step, velocity, effort, derate, ramp, margin, peak):
     """One command (finite, float) through the layer's limits, per joint ``i``:

@@ -32,7 +32,8 @@ What it watches:
   until ``reset()`` (never a stiff hold of the last command).
 - ``watchdog``: no ``write`` for ``watchdog_periods`` control periods (checked on every read and by
   the watchdog thread), armed at ``activate`` → damping mode (kp = 0, τ_ff = 0, kd = ``kd_damping``).
-  The next valid write resumes with a soft start.
+  The next valid write resumes with a soft start. ``activate`` first loads the compiled kernels
+  (``robot_ctrl.kernels``), so that none is compiled inside the first ticks.
 - ``stale_state``: the backend's state has not advanced for ``stale_periods`` control periods →
   damping mode; writes are answered with damping until a fresh state arrives.
 - ``position_beyond_limit``: a measured joint position more than ``limit_tolerance`` beyond its
@@ -75,6 +76,7 @@ from robot_ctrl.hw.command_filter import FLAG_KINDS, filter_command
 from robot_ctrl.hw.safety_limits import SafetyLimits
 from robot_ctrl.hw.servo_torque import bound_servo_torque
 from robot_ctrl.hw.types import CommandError, JointCommand, JointState, LifecycleState
+from robot_ctrl.kernels import load_kernels
 
 S = LifecycleState
 logger = logging.getLogger("robot_ctrl.hw.safety")
@@ -141,6 +143,11 @@ class SafetyLayer(HardwareAdapter):
         self._backend_call(self.backend.configure)
 
     def _on_activate(self) -> None:
+        # Before the servos are on and the watchdog armed: a kernel compiled inside the first ticks
+        # (a machine's first run) would miss them.
+        if (seconds := load_kernels()) > 1.0:
+            logger.warning("compiled the control loop's numba kernels in %.0f s (this version's first run on this "
+                           "machine; cached from now on)", seconds)
         self._backend_call(self.backend.activate)
         with self._lock:
             self._begin_soft_start()

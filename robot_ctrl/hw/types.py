@@ -11,7 +11,8 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from numba import njit
+
+from robot_ctrl.kernels import VECTOR, kernel
 
 #: Readings a simulated scene's props may report per tick (``JointState.scene``).
 SCENE_CHANNELS = 8
@@ -155,7 +156,7 @@ class JointCommand:
             raise CommandError(f"JointCommand.{name} must be >= 0; negative at joint indices {bad.tolist()}")
 
 
-@njit(cache=True)
+@kernel((VECTOR, VECTOR, VECTOR, VECTOR, VECTOR))
 def _sound_command(q, dq, kp, kd, tau_ff) -> bool:
     """Every entry finite, the gains ≥ 0 (float arrays of one length)."""
     for i in range(q.size):

@@ -16,8 +16,8 @@ from typing import Mapping
 
 import numpy as np
 import pinocchio as pin
-from numba import njit
 
+from robot_ctrl.kernels import INDICES, INT, VECTOR, kernel
 from robot_ctrl.robot.config import AddedFrame, ConfigError, RobotConfig, load_robot_config
 from robot_ctrl.robot.description import RobotFiles, read_srdf, robot_files
 from robot_ctrl.robot.mjcf import cached_scene_mjcf
@@ -154,7 +154,7 @@ def measured_configuration(robot: RobotModel, base_pos: np.ndarray, base_quat_xy
                                                                           base_angvel, joints, joint_velocities)))
 
 
-@njit(cache=True)
+@kernel((VECTOR, INDICES, INDICES, INT, VECTOR, VECTOR, VECTOR, VECTOR, VECTOR, VECTOR))
 def _measured_configuration(q_template, q_index, v_index, nv, base_pos, quat, linvel, angvel, joints, velocities):
     q = _configuration(q_template, q_index, base_pos, quat, joints)
     x, y, z, w = q[3], q[4], q[5], q[6]
@@ -181,7 +181,7 @@ def configuration(robot: RobotModel, base_pos: np.ndarray, base_quat_xyzw: np.nd
                           np.asarray(base_quat_xyzw, dtype=float), joints)
 
 
-@njit(cache=True)
+@kernel((VECTOR, INDICES, VECTOR, VECTOR, VECTOR))
 def _configuration(q_template, q_index, base_pos, quat, joints):
     q = q_template.copy()
     norm = math.sqrt(quat[0] ** 2 + quat[1] ** 2 + quat[2] ** 2 + quat[3] ** 2)

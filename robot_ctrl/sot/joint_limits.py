@@ -6,8 +6,8 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
-from numba import njit
 
+from robot_ctrl.kernels import FLOAT, INDICES, VECTOR, kernel
 from robot_ctrl.robot.model import RobotModel
 
 
@@ -114,7 +114,7 @@ _NO_PREVIOUS = np.zeros(0)  # no previous velocity: no acceleration bound
 _WITHIN, _OUTSIDE, _NOT_FINITE = 0, 1, 2  # what _velocity_bounds found
 
 
-@njit(cache=True)
+@kernel((VECTOR, INDICES, FLOAT, VECTOR, VECTOR, VECTOR, VECTOR, VECTOR, VECTOR, VECTOR, VECTOR, VECTOR, VECTOR))
 def _velocity_bounds(q, q_index, dt, hard_min, hard_max, q_min, q_max, v_max, a_brake, a_max, previous, lo, hi) -> int:
     """:meth:`JointLimits.bounds` joint by joint into ``lo`` and ``hi``: ``_WITHIN``; or
     ``_NOT_FINITE`` when the configuration ``q`` holds a NaN or ∞, ``_OUTSIDE`` when a joint lies
@@ -142,7 +142,7 @@ def _velocity_bounds(q, q_index, dt, hard_min, hard_max, q_min, q_max, v_max, a_
     return _WITHIN
 
 
-@njit(cache=True)
+@kernel()
 def _braking(a_max: float, distance: float, dt: float) -> float:
     """``b(d) = a (√(dt²/4 + 2 d / a) − dt/2)``: the velocity that steps of ``dt`` decelerating by
     ``a`` bring to rest within ``d ≥ 0`` (``v²/2a + v dt/2 = d``); 0 at or beyond the limit."""

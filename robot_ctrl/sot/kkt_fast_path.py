@@ -31,8 +31,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 
+from robot_ctrl.kernels import FLOAT, INDICES, MATRIX, VECTOR, kernel
 from robot_ctrl.sot.task import Task
 
 EXACT_TOL = 1e-9  # relative residual of the higher levels that the fast path must reach
@@ -165,7 +165,7 @@ class KKTFastPath:
         return None
 
 
-@njit(cache=True)
+@kernel((VECTOR, MATRIX, VECTOR, VECTOR, VECTOR, INDICES))
 def meets_higher_levels(v, E, f, lo, hi, bounded) -> bool:
     """The fast path's acceptance: ``v`` meets the bounds and ``E v = f`` to ``EXACT_TOL``
     (relative). Compiled, as :func:`kkt_solution`."""
@@ -185,7 +185,7 @@ def bounds_lain_on(v: np.ndarray, lo: np.ndarray, hi: np.ndarray, bounded: np.nd
     return active, at_hi[active]
 
 
-@njit(cache=True)
+@kernel((MATRIX, VECTOR, MATRIX, VECTOR, FLOAT, INDICES, VECTOR, INDICES))
 def kkt_solution(E, f, A, b, mu, dofs, beta, unit_rows):
     """The KKT matrix ``M`` of the module docstring, ``S_B`` selecting the velocity indices
     ``dofs``, and its solution ``x`` for the right-hand sides ``[Aᵀb; f; β]``, then a unit column

@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from robot_ctrl.kernels import FLOAT, VECTOR, kernel
 
 
-@njit(cache=True)
+@kernel((VECTOR, VECTOR, VECTOR, VECTOR, VECTOR, VECTOR, VECTOR, FLOAT))
 def servo_velocity_bounds(q_ref: np.ndarray, q: np.ndarray, dq: np.ndarray, tau_ff: np.ndarray, kp: np.ndarray,
                           kd: np.ndarray, budget: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
     """Bounds ``lo ≤ v ≤ hi`` on a joint's IK velocity ``v`` for one step of ``dt`` from the

@@ -19,10 +19,11 @@ tick and through every preview, where numpy's per-call cost on a (6, 2) state is
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from robot_ctrl.kernels import FLOAT, MATRIX, kernel
 
 
-@njit(cache=True)
+@kernel()
 def hopf(x: np.ndarray, omega: float) -> np.ndarray:
     """ẋ for states ``x`` (n, 2), each an oscillator of frequency ``omega`` [rad/s]."""
     out = np.empty_like(x)
@@ -34,7 +35,7 @@ def hopf(x: np.ndarray, omega: float) -> np.ndarray:
     return out
 
 
-@njit(cache=True)
+@kernel()
 def star_coupled(x: np.ndarray, omega: float, coupling: float) -> np.ndarray:
     """ẋ of a leader (row 0) and followers (rows 1..) coupled to it with gain ``coupling`` [1/s]."""
     dx = hopf(x, omega)
@@ -44,7 +45,7 @@ def star_coupled(x: np.ndarray, omega: float, coupling: float) -> np.ndarray:
     return dx
 
 
-@njit(cache=True)
+@kernel((MATRIX, FLOAT, FLOAT, FLOAT))
 def star_step(x: np.ndarray, omega: float, coupling: float, dt: float) -> np.ndarray:
     """One classical Runge-Kutta step of ``ẋ = star_coupled(x, omega, coupling)`` over ``dt`` [s]."""
     k1 = star_coupled(x, omega, coupling)

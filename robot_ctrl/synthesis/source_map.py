@@ -18,7 +18,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
+
+from robot_ctrl.kernels import FLOAT, FORTRAN_MATRIX, MATRIX, kernel
 
 
 @dataclass(frozen=True)
@@ -49,7 +50,7 @@ class SourceMap:
                         self.coefficients, self.sigma)
 
 
-@njit(cache=True)
+@kernel((MATRIX, MATRIX, MATRIX, FORTRAN_MATRIX, FLOAT))
 def _delayed(x, rotations, centers, coefficients, sigma):
     """:meth:`SourceMap.delayed`, compiled: the synthesis evaluates it on every control tick and
     through every preview, N × K × M kernel terms.

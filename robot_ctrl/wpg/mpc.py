@@ -30,9 +30,9 @@ from dataclasses import dataclass, field
 import casadi as ca
 import daqp
 import numpy as np
-from numba import njit
 
 from robot_ctrl.geometry import rotation
+from robot_ctrl.kernels import MATRIX, STACK, VECTOR, kernel
 from robot_ctrl.wpg.footstep import FootRef
 from robot_ctrl.wpg.lipm import horizon_matrices
 from robot_ctrl.wpg.params import WalkParams
@@ -229,7 +229,7 @@ class WalkingMPC:
         return H, g, A, lba, uba
 
 
-@njit(cache=True)
+@kernel((STACK, MATRIX, MATRIX, STACK, MATRIX, MATRIX, MATRIX, VECTOR))
 def _zmp_rows(Hs, hs, Pzu, S_anchor, off_anchor, zs, A, uba) -> None:
     """The ZMP rows of ``A`` and ``uba`` (the first ``MAX_EDGES N``), row ``(j, e)`` for edge ``e``
     of sample ``j``: ``H_je [Pzu_j Ux, Pzu_j Uy] − H_je S_j F ≤ h_je + H_je (a_j − z_j)`` (``z_j``
