@@ -152,6 +152,13 @@ def _corners(soles, length, width):
     return corners
 
 
+@kernel()
+def sole_halfplanes(soles, length, width):
+    """Half-planes ``(H, h)`` of the hull of sole rectangles, ``soles`` (k, 3) as for
+    :func:`_corners`: for other kernels (the walking MPC's supports)."""
+    return _halfplanes(_sole_hull(soles, length, width))
+
+
 @kernel((MATRIX, FLOAT, FLOAT))
 def _sole_hull(soles, length, width):
     """Counter-clockwise hull of sole rectangles, ``soles`` (k, 3) as for :func:`_corners` (one

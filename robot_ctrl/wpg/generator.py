@@ -24,7 +24,6 @@ the clock use physical time. This is how a crowd coupling sets the step period (
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass
 
@@ -36,7 +35,7 @@ from robot_ctrl.wpg.lipm import com_at, dcm, natural_frequency
 from robot_ctrl.wpg.mpc import MpcInfeasible, MpcProblem, MpcSolution, Reach, SampleSupports, WalkingMPC
 from robot_ctrl.wpg.params import WalkParams
 from robot_ctrl.wpg.plan import GaitPhase, PlanPreview, PreviewSample, SolePlan, Touchdown, WalkReference
-from robot_ctrl.wpg.segments import Segment, blend, midpoint, segment_at, support_halfplanes, swing_point
+from robot_ctrl.wpg.segments import Segment, blend, horizon_supports, midpoint, packed_segments, segment_at, swing_point
 from robot_ctrl.wpg.swing import SwingTrajectory
 
 #: [m] a foot this close to its stop footstep (in x and in y) is there: the plan follows the real
@@ -185,7 +184,7 @@ class WalkingPatternGenerator:
         while t_land < horizon and index < 2:
             side = other(previous.side)
             heading = self.heading + self.velocity[2] * t_land * self.time_scale
-            yaw = previous.yaw + np.clip(wrap_angle(heading - previous.yaw), -p.max_yaw_step, p.max_yaw_step)
+            yaw = previous.yaw + min(max(wrap_angle(heading - previous.yaw), -p.max_yaw_step), p.max_yaw_step)
             if self.stop_feet is not None:
                 fixed = FootRef.known(self._toward_goal(previous, side))
                 final = self._at_goal(fixed) and self._at_goal(previous)
@@ -207,7 +206,7 @@ class WalkingPatternGenerator:
     def _toward_goal(self, previous: FootRef, side: str) -> Footstep:
         """The stop footstep of ``side``, clamped into the reach region (and yaw step) of ``previous``."""
         goal = self.stop_feet[side]
-        yaw = previous.yaw + np.clip(wrap_angle(goal.yaw - previous.yaw), -self.p.max_yaw_step, self.p.max_yaw_step)
+        yaw = previous.yaw + min(max(wrap_angle(goal.yaw - previous.yaw), -self.p.max_yaw_step), self.p.max_yaw_step)
         local = rotation(previous.yaw).T @ (goal.xy - previous.offset)
         box = self._reach_box(side)
         local = np.clip(local, [box[0], box[2]], [box[1], box[3]])
@@ -225,36 +224,15 @@ class WalkingPatternGenerator:
 
     def _problem(self, segments: list[Segment], landings: list[Landing]) -> MpcProblem:
         p = self.p
-        half = np.array([p.foot_length / 2 - p.zmp_margin, p.foot_width / 2 - p.zmp_margin])
-        # Each sample's segment (as segment_at finds it, for the sample's end), fraction of it and
-        # support polygon (one per segment half), in plain floats and lists: numpy only once per array.
-        polygons: dict[tuple[int, bool], tuple] = {}  # (segment, second half) -> (H, h, anchor)
-        H, h, anchors, zmp_from, zmp_to, fractions = [], [], [], [], [], []
-        k, start, last = 0, 0.0, len(segments) - 1
-        for j in range(p.horizon):
-            t = (j + 1) * p.sample_time  # nominal
-            while k < last and t > start + segments[k].duration + 1e-9:
-                start += segments[k].duration
-                k += 1
-            seg = segments[k]
-            s = 1.0 if not math.isfinite(seg.duration) or seg.duration == 0 else (t - start) / seg.duration
-            s = min(max(s, 0.0), 1.0)
-            key = (k, s >= 0.5)
-            if key not in polygons:
-                polygons[key] = support_halfplanes(seg, s, half)
-            polygon = polygons[key]
-            H.append(polygon[0])
-            h.append(polygon[1])
-            anchors.append(polygon[2])
-            zmp_from.append(seg.zmp_from)
-            zmp_to.append(seg.zmp_from if seg.zmp_to is None else seg.zmp_to)
-            fractions.append(s)
-        supports = SampleSupports.of(H, h, anchors, zmp_from, zmp_to, fractions)
+        length, width = 2 * (p.foot_length / 2 - p.zmp_margin), 2 * (p.foot_width / 2 - p.zmp_margin)
+        supports = SampleSupports(*horizon_supports(*packed_segments(segments), p.sample_time, p.horizon, length,
+                                                    width))
         # The velocity reference, turned by the integrated yaw rate at each sample (world frame).
         heading = self.heading + self.velocity[2] * self.time_scale * p.sample_time * np.arange(1, p.horizon + 1)
         cos, sin = np.cos(heading), np.sin(heading)
         vx, vy = self.velocity[:2]
-        velocity = np.stack([cos * vx - sin * vy, sin * vx + cos * vy], axis=1)
+        velocity = np.empty((p.horizon, 2))
+        velocity[:, 0], velocity[:, 1] = cos * vx - sin * vy, sin * vx + cos * vy
         stance = FootRef.known(self.feet[self.stance])
         reach, fixed = [], {}
         nominal = np.zeros(4)

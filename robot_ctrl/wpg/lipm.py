@@ -53,10 +53,9 @@ def horizon_matrices(T: float, N: int, com_height: float, g: float = GRAVITY) ->
         S[j] = power
     for j in range(N):
         U[j, : j + 1] = AkB[j::-1]
-    return HorizonMatrices(
-        Pps=S[:, 0, :], Ppu=U[:, :, 0], Pvs=S[:, 1, :], Pvu=U[:, :, 1],
-        Pzs=np.einsum("k,jkl->jl", zmp_row, S), Pzu=U @ zmp_row,
-    )
+    # Contiguous copies: the walking MPC's compiled assembly takes them as they are.
+    return HorizonMatrices(*(np.ascontiguousarray(P) for P in (
+        S[:, 0, :], U[:, :, 0], S[:, 1, :], U[:, :, 1], np.einsum("k,jkl->jl", zmp_row, S), U @ zmp_row)))
 
 
 def natural_frequency(com_height: float, g: float = GRAVITY) -> float:
@@ -72,5 +71,7 @@ def dcm(com: np.ndarray, com_velocity: np.ndarray, omega: float) -> np.ndarray:
 
 def com_at(state: np.ndarray, jerk: float, tau: float) -> np.ndarray:
     """State ``[x, ẋ, ẍ]`` at time ``tau`` into a sample with constant ``jerk``."""
-    A, B = transition(tau)
-    return A @ state + B * jerk
+    x, v, a = state.tolist()
+    j, t2 = float(jerk), tau * tau / 2.0
+    # A(tau) x̂ + B(tau) u written out: it runs on every control tick (WalkingPatternGenerator.sample).
+    return np.array([x + tau * v + t2 * a + tau**3 / 6.0 * j, v + tau * a + t2 * j, a + tau * j])

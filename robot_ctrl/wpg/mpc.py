@@ -25,14 +25,14 @@ be violated, hpipm's interface rejected the dense constraint pattern).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import casadi as ca
 import daqp
 import numpy as np
 
-from robot_ctrl.geometry import rotation
-from robot_ctrl.kernels import MATRIX, STACK, VECTOR, kernel
+from robot_ctrl.kernels import FLOAT, MATRIX, STACK, VECTOR, kernel
 from robot_ctrl.wpg.footstep import FootRef
 from robot_ctrl.wpg.lipm import horizon_matrices
 from robot_ctrl.wpg.params import WalkParams
@@ -66,18 +66,6 @@ class SampleSupports:
     anchor_offset: np.ndarray  # (N, 2)
     zmp_ref_S: np.ndarray  # (N, 2, 4)
     zmp_ref_offset: np.ndarray  # (N, 2)
-
-    @classmethod
-    def of(cls, H: list[np.ndarray], h: list[np.ndarray], anchors: list[FootRef], zmp_from: list[FootRef],
-           zmp_to: list[FootRef], s: list[float]) -> SampleSupports:
-        """From each sample's polygon ``(H, h)`` (``MAX_EDGES`` rows) anchored at ``anchors``, and its
-        reference ZMP at the fraction ``s`` of the way from ``zmp_from`` to ``zmp_to``."""
-        s = np.array(s)[:, None]
-        # np.array of a list of equal arrays: numpy's np.stack costs three times as much here.
-        ref_S = (1 - s)[:, :, None] * np.array([a.S for a in zmp_from]) + s[:, :, None] * np.array([b.S for b in zmp_to])
-        ref_offset = (1 - s) * np.array([a.offset for a in zmp_from]) + s * np.array([b.offset for b in zmp_to])
-        return cls(np.array(H), np.array(h), np.array([a.S for a in anchors]), np.array([a.offset for a in anchors]),
-                   ref_S, ref_offset)
 
 
 @dataclass
@@ -140,46 +128,45 @@ class WalkingMPC:
         self.sample_time = T
         self.m = horizon_matrices(T, N, p.com_height)
         # Constant parts of the cost: jerk-to-velocity and jerk-to-ZMP maps of both axes.
-        self._Mvu = np.zeros((2 * N, 2 * N))
-        self._Mvu[:N, :N] = self._Mvu[N:, N:] = self.m.Pvu
-        self._Mzu = np.zeros((2 * N, 2 * N))
-        self._Mzu[:N, :N] = self._Mzu[N:, N:] = self.m.Pzu
+        Mvu, Mzu = np.zeros((2 * N, 2 * N)), np.zeros((2 * N, 2 * N))
+        Mvu[:N, :N] = Mvu[N:, N:] = self.m.Pvu
+        Mzu[:N, :N] = Mzu[N:, N:] = self.m.Pzu
         self._H_const = np.zeros((self.nw, self.nw))
-        self._H_const[: 2 * N, : 2 * N] = (p.w_velocity * self._Mvu.T @ self._Mvu
-                                           + p.w_zmp * self._Mzu.T @ self._Mzu + p.w_jerk * np.eye(2 * N))
+        self._H_const[: 2 * N, : 2 * N] = p.w_velocity * Mvu.T @ Mvu + p.w_zmp * Mzu.T @ Mzu + p.w_jerk * np.eye(2 * N)
         self._H_const[2 * N :, 2 * N :] = p.w_footstep * np.eye(4)
 
     def solve(self, prob: MpcProblem) -> MpcSolution:
         self._set_sample_time(prob.sample_time or self.p.sample_time)
-        H, g, A, lba, uba = self.assemble(prob)
-        w = self._solve_direct(H, g, A, lba, uba) if self.solver is None else self._solve_casadi(H, g, A, lba, uba)
-        Aw = A @ w
-        violation = max((Aw - uba).max(), (lba - Aw).max())
+        H, g, A, lower, upper, sense, rows = self.assemble(prob)
+        if self.solver is None:
+            w = self._solve_direct(H, g, A, lower, upper, sense)
+        else:
+            w = self._solve_casadi(H, g, A, lower, upper, rows)
+        violation = _violation(A, w, lower, upper)
         if violation > 1e-5:
             raise MpcInfeasible(f"walking QP solution violates its constraints by {violation:.2e}")
         N = self.N
         if self.solver is not None:  # warm start of a CasADi plugin for the next sample: the jerks shifted by one
             self._x0 = np.concatenate([w[1:N], w[N - 1 : N], w[N + 1 : 2 * N], w[2 * N - 1 : 2 * N], w[2 * N :]])
-        Ux, Uy, F = w[:N], w[N : 2 * N], w[2 * N :]
         m = self.m
-        zmp = np.array([m.Pzs @ prob.com_x + m.Pzu @ Ux, m.Pzs @ prob.com_y + m.Pzu @ Uy]).T
-        com = np.array([m.Pps @ prob.com_x + m.Ppu @ Ux, m.Pps @ prob.com_y + m.Ppu @ Uy]).T
-        return MpcSolution(Ux, Uy, F, zmp, com)
+        zmp, com = _predicted(m.Pzs, m.Pzu, prob.com_x, prob.com_y, w), _predicted(m.Pps, m.Ppu, prob.com_x, prob.com_y, w)
+        return MpcSolution(w[:N], w[N : 2 * N], w[2 * N :], zmp, com)
 
-    def _solve_direct(self, H, g, A, lba, uba) -> np.ndarray:
-        used = np.isfinite(lba) | np.isfinite(uba)  # a support with fewer edges leaves rows unbounded
-        sense = np.where(lba[used] == uba[used], _DAQP_EQUALITY, 0).astype(np.intc)
-        w, _, exitflag, info = daqp.solve(H, g, A[used], uba[used], lba[used], sense)
+    def _solve_direct(self, H, g, A, lower, upper, sense) -> np.ndarray:
+        w, _, exitflag, info = daqp.solve(H, g, A, upper, lower, sense)
         self.last_stats = {"success": exitflag in _DAQP_OPTIMAL, "return_status": f"daqp exit flag {exitflag}",
                            "iterations": info["iterations"]}
         if exitflag not in _DAQP_OPTIMAL or not np.all(np.isfinite(w)):
             raise MpcInfeasible(f"walking QP failed: daqp exit flag {exitflag}")
         return w
 
-    def _solve_casadi(self, H, g, A, lba, uba) -> np.ndarray:
+    def _solve_casadi(self, H, g, A, lower, upper, rows) -> np.ndarray:
+        # The plugin's constraint matrix has a fixed shape (nc rows): the rows in use go to their places.
+        A_all, lba, uba = np.zeros((self.nc, self.nw)), np.full(self.nc, -np.inf), np.full(self.nc, np.inf)
+        A_all[rows], lba[rows], uba[rows] = A, lower, upper
         # CasADi converts Python lists faster than numpy arrays.
         res = self.solver(h=ca.DM(self._sp_h, H.ravel(order="F").tolist()), g=g.tolist(),
-                          a=ca.DM(self._sp_a, A.ravel(order="F").tolist()), lba=lba.tolist(), uba=uba.tolist(),
+                          a=ca.DM(self._sp_a, A_all.ravel(order="F").tolist()), lba=lba.tolist(), uba=uba.tolist(),
                           x0=self._x0.tolist(), lam_a0=self._lam_a0.tolist(), lam_x0=self._lam_x0.tolist())
         self.last_stats = self.solver.stats()
         w = np.asarray(res["x"]).ravel()
@@ -190,66 +177,140 @@ class WalkingMPC:
         return w
 
     def assemble(self, prob: MpcProblem):
-        """Dense QP ``min ½ wᵀHw + gᵀw  s.t. lba ≤ A w ≤ uba`` of one sample."""
-        p, m, N, nu = self.p, self.m, self.N, 2 * self.N
-        zs = np.stack([m.Pzs @ prob.com_x, m.Pzs @ prob.com_y], axis=1)  # (N, 2) ZMP drift without jerk
-        # ZMP residual Z − Z_ref(F) = [Mzu, −S_ref] w + bz and velocity residual Ẋ − Ẋ_ref = [Mvu, 0] w + bv,
-        # x rows then y rows.
-        sup = prob.supports
-        S_ref = np.concatenate([sup.zmp_ref_S[:, 0], sup.zmp_ref_S[:, 1]])  # (2N, 4)
-        off_ref = sup.zmp_ref_offset
-        bz = (zs - off_ref).T.ravel()
-        bv = np.concatenate([m.Pvs @ prob.com_x, m.Pvs @ prob.com_y]) - prob.velocity_ref.T.ravel()
-        H = self._H_const.copy()
-        H[:nu, nu:] = -p.w_zmp * self._Mzu.T @ S_ref
-        H[nu:, :nu] = H[:nu, nu:].T
-        H[nu:, nu:] += p.w_zmp * S_ref.T @ S_ref
-        g = np.empty(self.nw)
-        g[:nu] = p.w_velocity * self._Mvu.T @ bv + p.w_zmp * self._Mzu.T @ bz
-        g[nu:] = -p.w_zmp * S_ref.T @ bz - p.w_footstep * prob.footstep_nominal
-
-        A = np.zeros((self.nc, self.nw))
-        lba = np.full(self.nc, -np.inf)
-        uba = np.full(self.nc, np.inf)
-        # ZMP rows, MAX_EDGES per sample (unused rows stay zero and unbounded): H_j (Z_j − a_j − S_j F) ≤ h_j.
-        _zmp_rows(sup.H, sup.h, m.Pzu, sup.anchor_S, sup.anchor_offset, zs, A, uba)
-        row = rows = MAX_EDGES * N
-        for r in prob.reach:
-            Rt = rotation(r.previous.yaw).T
-            A[row : row + 2, nu:] = Rt @ (_select(r.index) - r.previous.S)
-            rhs = Rt @ r.previous.offset
-            lba[row : row + 2] = [r.box[0] + rhs[0], r.box[2] + rhs[1]]
-            uba[row : row + 2] = [r.box[1] + rhs[0], r.box[3] + rhs[1]]
-            row += 2
-        row = rows + 8
-        for index, ref in prob.fixed.items():
-            A[row : row + 2, nu:] = _select(index) - ref.S
-            lba[row : row + 2] = uba[row : row + 2] = ref.offset
-            row += 2
-        return H, g, A, lba, uba
+        """Dense QP ``min ½ wᵀHw + gᵀw  s.t. lower ≤ A w ≤ upper`` of one sample: ``(H, g, A, lower,
+        upper, sense, rows)`` with only the constraint rows in use (a support of fewer than
+        ``MAX_EDGES`` edges leaves rows out), ``sense`` daqp's for each (equality for a fixed
+        footstep) and ``rows`` their places among the ``nc`` rows of the whole layout (``_qp``)."""
+        p, m, sup = self.p, self.m, prob.supports
+        reach = np.empty((len(prob.reach), 16))
+        for row, r in zip(reach, prob.reach):
+            row[0], row[1], row[2:4], row[4:8], row[8:] = r.index, r.previous.yaw, r.previous.offset, r.box, r.previous.S.ravel()
+        fixed = np.empty((len(prob.fixed), 11))
+        for row, (index, ref) in zip(fixed, prob.fixed.items()):
+            row[0], row[1:3], row[3:] = index, ref.offset, ref.S.ravel()
+        return _qp(self._H_const, m.Pzs, m.Pzu, m.Pvs, m.Pvu, prob.com_x, prob.com_y, prob.velocity_ref, sup.H, sup.h,
+                   sup.anchor_S, sup.anchor_offset, sup.zmp_ref_S, sup.zmp_ref_offset, prob.footstep_nominal, reach,
+                   fixed, p.w_velocity, p.w_zmp, p.w_footstep)
 
 
-@kernel((STACK, MATRIX, MATRIX, STACK, MATRIX, MATRIX, MATRIX, VECTOR))
-def _zmp_rows(Hs, hs, Pzu, S_anchor, off_anchor, zs, A, uba) -> None:
-    """The ZMP rows of ``A`` and ``uba`` (the first ``MAX_EDGES N``), row ``(j, e)`` for edge ``e``
-    of sample ``j``: ``H_je [Pzu_j Ux, Pzu_j Uy] − H_je S_j F ≤ h_je + H_je (a_j − z_j)`` (``z_j``
-    the ZMP drift ``zs``, ``a_j`` the anchor offset). Compiled: numpy's broadcasting and reshapes
-    cost more than these few thousand products."""
-    N, edges = Hs.shape[0], Hs.shape[1]
+@kernel((MATRIX, MATRIX, MATRIX, MATRIX, MATRIX, VECTOR, VECTOR, MATRIX, STACK, MATRIX, STACK, MATRIX, STACK, MATRIX,
+         VECTOR, MATRIX, MATRIX, FLOAT, FLOAT, FLOAT))
+def _qp(H_const, Pzs, Pzu, Pvs, Pvu, com_x, com_y, velocity_ref, Hs, hs, anchor_S, anchor_offset, ref_S, ref_offset,
+        nominal, reach, fixed, w_velocity, w_zmp, w_footstep):
+    """The QP of the module docstring for :meth:`WalkingMPC.assemble`. Per axis ``a`` (x rows, then
+    y rows), the ZMP residual ``Z − Z_ref(F) = Pzu U_a − S_ref,a F + bz_a`` with ``bz_a = Pzs x̂_a −
+    offset_ref,a`` and the velocity residual ``Ẋ − Ẋ_ref = Pvu U_a + bv_a`` with ``bv_a = Pvs x̂_a −
+    Ẋ_ref,a``; ``H_const`` holds the jerk-only and footstep-only parts. Constraint rows, in use only:
+
+    - ZMP, edge ``e`` of sample ``j`` (``h_je`` finite): ``H_je [Pzu_j U_x, Pzu_j U_y] − H_je S_j F ≤
+      h_je + H_je (a_j − z_j)``, ``z_j`` the ZMP drift ``Pzs x̂``, ``a_j`` the anchor offset (row
+      ``MAX_EDGES j + e`` of the layout);
+    - reach, per row of ``reach`` (index, yaw, offset (2), box (4), S (8) of the previous foot):
+      ``box_lo + Rᵀ p ≤ Rᵀ (F_i − S F) ≤ box_hi + Rᵀ p``, ``R`` the previous foot's yaw and ``p`` its
+      offset (rows ``MAX_EDGES N + 2 r``);
+    - fixed, per row of ``fixed`` (index, offset (2), S (8)): ``F_i − S F = offset``, equalities (rows
+      ``MAX_EDGES N + 8 + 2 k``).
+
+    Compiled: numpy's calls on these few dozen rows cost more than the arithmetic."""
+    N = Pzu.shape[0]
+    nu, nw = 2 * N, 2 * N + 4
+    com = (com_x, com_y)
+    bz, bv = np.empty((2, N)), np.empty((2, N))
+    for a in range(2):
+        for j in range(N):
+            zs = Pzs[j, 0] * com[a][0] + Pzs[j, 1] * com[a][1] + Pzs[j, 2] * com[a][2]
+            bz[a, j] = zs - ref_offset[j, a]
+            bv[a, j] = Pvs[j, 0] * com[a][0] + Pvs[j, 1] * com[a][1] + Pvs[j, 2] * com[a][2] - velocity_ref[j, a]
+    H = H_const.copy()
+    g = np.empty(nw)
+    for a in range(2):
+        for i in range(N):
+            gi = 0.0
+            for j in range(N):
+                gi += w_velocity * Pvu[j, i] * bv[a, j] + w_zmp * Pzu[j, i] * bz[a, j]
+            g[a * N + i] = gi
+            for c in range(4):
+                hic = 0.0
+                for j in range(N):
+                    hic -= w_zmp * Pzu[j, i] * ref_S[j, a, c]
+                H[a * N + i, nu + c] = H[nu + c, a * N + i] = hic
+    for c in range(4):
+        gc = -w_footstep * nominal[c]
+        for d in range(4):
+            hcd = 0.0
+            for a in range(2):
+                for j in range(N):
+                    hcd += w_zmp * ref_S[j, a, c] * ref_S[j, a, d]
+            H[nu + c, nu + d] += hcd
+        for a in range(2):
+            for j in range(N):
+                gc -= w_zmp * ref_S[j, a, c] * bz[a, j]
+        g[nu + c] = gc
+
+    nc = MAX_EDGES * N + 8 + 4
+    A, lower, upper = np.zeros((nc, nw)), np.full(nc, -np.inf), np.full(nc, np.inf)
+    sense, rows = np.zeros(nc, dtype=np.int32), np.empty(nc, dtype=np.int64)
+    m = 0
     for j in range(N):
-        for e in range(edges):
-            r = j * edges + e
+        for e in range(Hs.shape[1]):
+            if not math.isfinite(hs[j, e]):
+                continue
             hx, hy = Hs[j, e, 0], Hs[j, e, 1]
             for i in range(N):
-                A[r, i] = hx * Pzu[j, i]
-                A[r, N + i] = hy * Pzu[j, i]
+                A[m, i] = hx * Pzu[j, i]
+                A[m, N + i] = hy * Pzu[j, i]
             for c in range(4):
-                A[r, 2 * N + c] = -(hx * S_anchor[j, 0, c] + hy * S_anchor[j, 1, c])
-            uba[r] = hs[j, e] + (hx * (off_anchor[j, 0] - zs[j, 0]) + hy * (off_anchor[j, 1] - zs[j, 1]))
+                A[m, nu + c] = -(hx * anchor_S[j, 0, c] + hy * anchor_S[j, 1, c])
+            zx = Pzs[j, 0] * com_x[0] + Pzs[j, 1] * com_x[1] + Pzs[j, 2] * com_x[2]
+            zy = Pzs[j, 0] * com_y[0] + Pzs[j, 1] * com_y[1] + Pzs[j, 2] * com_y[2]
+            upper[m] = hs[j, e] + (hx * (anchor_offset[j, 0] - zx) + hy * (anchor_offset[j, 1] - zy))
+            rows[m] = MAX_EDGES * j + e
+            m += 1
+    for r in range(reach.shape[0]):
+        index, cos, sin = int(reach[r, 0]), math.cos(reach[r, 1]), math.sin(reach[r, 1])
+        Rt = ((cos, sin), (-sin, cos))
+        for b in range(2):
+            for c in range(4):
+                A[m + b, nu + c] = (Rt[b][0] * ((1.0 if c == 2 * index else 0.0) - reach[r, 8 + c])
+                                    + Rt[b][1] * ((1.0 if c == 2 * index + 1 else 0.0) - reach[r, 12 + c]))
+            rhs = Rt[b][0] * reach[r, 2] + Rt[b][1] * reach[r, 3]
+            lower[m + b], upper[m + b] = reach[r, 4 + 2 * b] + rhs, reach[r, 5 + 2 * b] + rhs
+            rows[m + b] = MAX_EDGES * N + 2 * r + b
+        m += 2
+    for k in range(fixed.shape[0]):
+        index = int(fixed[k, 0])
+        for b in range(2):
+            for c in range(4):
+                A[m + b, nu + c] = (1.0 if c == 2 * index + b else 0.0) - fixed[k, 3 + 4 * b + c]
+            lower[m + b] = upper[m + b] = fixed[k, 1 + b]
+            sense[m + b] = _DAQP_EQUALITY
+            rows[m + b] = MAX_EDGES * N + 8 + 2 * k + b
+        m += 2
+    return H, g, A[:m].copy(), lower[:m].copy(), upper[:m].copy(), sense[:m].copy(), rows[:m].copy()
 
 
-def _select(index: int) -> np.ndarray:
-    """2×4 selection of footstep ``index`` in F."""
-    sel = np.zeros((2, 4))
-    sel[0, 2 * index] = sel[1, 2 * index + 1] = 1.0
-    return sel
+@kernel((MATRIX, VECTOR, VECTOR, VECTOR))
+def _violation(A, w, lower, upper) -> float:
+    """How far ``A w`` lies outside ``[lower, upper]`` at most (≤ 0 within)."""
+    worst = -np.inf
+    for r in range(A.shape[0]):
+        Aw = 0.0
+        for c in range(w.size):
+            Aw += A[r, c] * w[c]
+        worst = max(worst, Aw - upper[r], lower[r] - Aw)
+    return worst
+
+
+@kernel((MATRIX, MATRIX, VECTOR, VECTOR, VECTOR))
+def _predicted(Ps, Pu, com_x, com_y, w):
+    """``[Ps x̂_x + Pu U_x, Ps x̂_y + Pu U_y]`` (N, 2): a predicted trajectory of both axes, ``U_x``
+    and ``U_y`` the first ``2 N`` entries of ``w``."""
+    N = Pu.shape[0]
+    out = np.empty((N, 2))
+    for a, com in enumerate((com_x, com_y)):
+        for j in range(N):
+            x = Ps[j, 0] * com[0] + Ps[j, 1] * com[1] + Ps[j, 2] * com[2]
+            for i in range(N):
+                x += Pu[j, i] * w[a * N + i]
+            out[j, a] = x
+    return out
