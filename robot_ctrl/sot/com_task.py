@@ -16,6 +16,7 @@ class ComTask(Task):
         super().__init__(name, **kw)
         self.axes = slice(None) if tuple(axes) == (0, 1, 2) else np.asarray(axes)  # all: a view, not a copy
         self.locked_dofs = np.asarray(locked_dofs, dtype=int)
+        self._free: np.ndarray | None = None  # 1 on the dofs the task may use, 0 on the locked ones (by nv)
         self.target = np.zeros(3)
         self.target_velocity = np.zeros(3)
 
@@ -26,7 +27,11 @@ class ComTask(Task):
     def error_and_jacobian(self, model, data, q):
         # From the joint Jacobians the solver computed for q; also updates data.com[0].
         J = pin.jacobianCenterOfMass(model, data, False)
-        J[:, self.locked_dofs] = 0.0
+        if self.locked_dofs.size:
+            if self._free is None or self._free.size != model.nv:
+                self._free = np.ones(model.nv)
+                self._free[self.locked_dofs] = 0.0
+            J *= self._free  # a product rather than an indexed assignment: this runs every tick
         return (self.target - data.com[0])[self.axes], J[self.axes]
 
     def error(self, model, data, q):

@@ -203,7 +203,7 @@ class HierarchicalQP:
         return v
 
     def _layout(self, tasks: list[Task], rows: list[tuple[np.ndarray, np.ndarray]]) -> _Layout:
-        key = (*tasks, *(len(b) for _, b in rows))
+        key = (*tasks, *[b.size for _, b in rows])
         layout = self._layouts.get(key)
         if layout is None:
             layout = self._layouts[key] = _Layout.of(self.levels, {t: len(b) for t, (_, b) in zip(tasks, rows)})

@@ -27,8 +27,9 @@ class Task(ABC):
     def error_and_jacobian(self, model: pin.Model, data: pin.Data, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Return ``(e, J)``: error (m,) and Jacobian (m, nv)."""
 
-    def feedforward(self) -> np.ndarray | float:
-        return 0.0
+    def feedforward(self) -> np.ndarray | None:
+        """The feedforward task velocity ``v_ff`` (m,); None: none."""
+        return None
 
     def error(self, model: pin.Model, data: pin.Data, q: np.ndarray) -> np.ndarray:
         """The error alone, at the configuration of the last :meth:`rows` (a task whose Jacobian
@@ -45,5 +46,6 @@ class Task(ABC):
         return self._weighted_rhs(self.error(model, data, q))
 
     def _weighted_rhs(self, e: np.ndarray) -> np.ndarray:
-        b = self.gain * e + self.feedforward()
+        feedforward = self.feedforward()
+        b = self.gain * e if feedforward is None else self.gain * e + feedforward
         return b if self.weight == 1.0 else self.weight * b
