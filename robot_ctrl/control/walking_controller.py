@@ -85,12 +85,12 @@ class WalkingOptions:
 class PreparedTick:
     """What :meth:`WalkingController.prepare` leaves for :meth:`~WalkingController.step`: the plan at
     the tick, the CoM target before the stabilizer's correction (world frame) and the torque
-    feedforward (Pinocchio velocity order)."""
+    feedforward (the robot's joint order, within the efforts)."""
 
     reference: WalkReference
     com: np.ndarray  # (2,) [m]
     com_velocity: np.ndarray  # (2,) [m/s]
-    tau_ff: np.ndarray  # (nv,) [N·m]
+    tau_ff: np.ndarray  # (nj,) [N·m]
 
 
 @dataclass
@@ -330,13 +330,15 @@ class WalkingController:
         return com, com_velocity
 
     def _feedforward(self, ref: WalkReference) -> np.ndarray:
-        """Quasi-static joint torques (nv,) for the planned contact split, at the reference
-        configuration extrapolated over the tick (module docstring)."""
+        """Quasi-static joint torques (nj, the robot's joint order) for the planned contact split, at
+        the reference configuration extrapolated over the tick (module docstring). A servo delivers
+        no more than its effort: a feedforward beyond it (a stance ankle holding the ZMP at the toe
+        of a small robot's sole) is sent as much as it can give."""
+        r = self.robot
         frames, shares = self.contact_split(ref)
-        q_ahead = pin.integrate(self.robot.pin, self.ik.q, self._v * self.dt)
-        tau_ff, _ = static_torques(self.robot.pin, self._statics, q_ahead, frames, shares,
-                                   np.array([*ref.com_acceleration, 0.0]))
-        return tau_ff
+        q_ahead = pin.integrate(r.pin, self.ik.q, self._v * self.dt)
+        tau_ff, _ = static_torques(r.pin, self._statics, q_ahead, frames, shares, np.array([*ref.com_acceleration, 0.0]))
+        return np.clip(tau_ff[r.v_index], -r.effort, r.effort)
 
     def _follow_the_feet(self) -> None:
         """Move the plan (and the IK's reference configuration with it) to where the stance foot
@@ -406,10 +408,7 @@ class WalkingController:
                                                 ref.zmp + self._balance_shift, self.dt, self.wpg.heading)
         ik = self.ik
         ik.com.set_target(np.array([*(prepared.com + correction), self.com_z]), ik.com.target_velocity)
-        r = self.robot
-        # A servo delivers no more than its effort: a feedforward beyond it (a stance ankle holding the
-        # ZMP at the toe of a small robot's sole) is sent as much as it can give.
-        tau_ff = np.clip(prepared.tau_ff[r.v_index], -r.effort, r.effort)
+        r, tau_ff = self.robot, prepared.tau_ff
         within = None
         if self._servo_budget is not None:
             within = servo_velocity_bounds(r.joints_from_q(ik.q), state.q, state.dq, tau_ff, r.kp, r.kd,

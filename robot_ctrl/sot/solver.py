@@ -169,8 +169,8 @@ class HierarchicalQP:
                     w = None  # not prepared for: solve the KKT system again
             stacked[k] = (stacked[k][0], b)
         lo, hi, bounded = p.lo, p.hi, self.limits.v_index
-        if tighter is not None:
-            lo, hi = np.clip(np.maximum(lo, tighter[0]), lo, hi), np.clip(np.minimum(hi, tighter[1]), lo, hi)
+        if tighter is not None:  # within [lo, hi] (lo ≤ hi): the clip written out, cheaper than np.clip's wrapper
+            lo, hi = np.minimum(np.maximum(lo, tighter[0]), hi), np.maximum(np.minimum(hi, tighter[1]), lo)
         if fast is not None:
             solved = fast.solve(w, f, stacked, lo, hi)
             if solved is not None:
