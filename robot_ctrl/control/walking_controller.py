@@ -337,7 +337,8 @@ class WalkingController:
         r = self.robot
         frames, shares = self.contact_split(ref)
         q_ahead = pin.integrate(r.pin, self.ik.q, self._v * self.dt)
-        tau_ff, _ = static_torques(r.pin, self._statics, q_ahead, frames, shares, np.array([*ref.com_acceleration, 0.0]))
+        tau_ff, _ = static_torques(r.pin, self._statics, q_ahead, frames, shares,
+                                   np.array([*ref.com_acceleration, 0.0]))
         return np.clip(tau_ff[r.v_index], -r.effort, r.effort)
 
     def _follow_the_feet(self) -> None:

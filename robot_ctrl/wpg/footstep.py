@@ -53,9 +53,6 @@ class FootRef:
         sign = -1.0 if self.side == "left" else 1.0
         return FootRef(other(self.side), self.yaw, self.offset + rotation(self.yaw) @ [0.0, sign * width], self.S)
 
-    def same_anchor(self, other_ref: "FootRef") -> bool:
-        return self.S is other_ref.S or not (self.S != other_ref.S).any()
-
     def position(self, F: np.ndarray) -> np.ndarray:
         return self.offset + self.S @ F
 

@@ -149,7 +149,8 @@ class WalkingMPC:
         if self.solver is not None:  # warm start of a CasADi plugin for the next sample: the jerks shifted by one
             self._x0 = np.concatenate([w[1:N], w[N - 1 : N], w[N + 1 : 2 * N], w[2 * N - 1 : 2 * N], w[2 * N :]])
         m = self.m
-        zmp, com = _predicted(m.Pzs, m.Pzu, prob.com_x, prob.com_y, w), _predicted(m.Pps, m.Ppu, prob.com_x, prob.com_y, w)
+        zmp = _predicted(m.Pzs, m.Pzu, prob.com_x, prob.com_y, w)
+        com = _predicted(m.Pps, m.Ppu, prob.com_x, prob.com_y, w)
         return MpcSolution(w[:N], w[N : 2 * N], w[2 * N :], zmp, com)
 
     def _solve_direct(self, H, g, A, lower, upper, sense) -> np.ndarray:
@@ -184,7 +185,8 @@ class WalkingMPC:
         p, m, sup = self.p, self.m, prob.supports
         reach = np.empty((len(prob.reach), 16))
         for row, r in zip(reach, prob.reach):
-            row[0], row[1], row[2:4], row[4:8], row[8:] = r.index, r.previous.yaw, r.previous.offset, r.box, r.previous.S.ravel()
+            row[0], row[1], row[2:4] = r.index, r.previous.yaw, r.previous.offset
+            row[4:8], row[8:] = r.box, r.previous.S.ravel()
         fixed = np.empty((len(prob.fixed), 11))
         for row, (index, ref) in zip(fixed, prob.fixed.items()):
             row[0], row[1:3], row[3:] = index, ref.offset, ref.S.ravel()
@@ -215,11 +217,11 @@ def _qp(H_const, Pzs, Pzu, Pvs, Pvu, com_x, com_y, velocity_ref, Hs, hs, anchor_
     N = Pzu.shape[0]
     nu, nw = 2 * N, 2 * N + 4
     com = (com_x, com_y)
-    bz, bv = np.empty((2, N)), np.empty((2, N))
+    zs, bz, bv = np.empty((2, N)), np.empty((2, N)), np.empty((2, N))  # zs: the ZMP drift Pzs x̂ without jerk
     for a in range(2):
         for j in range(N):
-            zs = Pzs[j, 0] * com[a][0] + Pzs[j, 1] * com[a][1] + Pzs[j, 2] * com[a][2]
-            bz[a, j] = zs - ref_offset[j, a]
+            zs[a, j] = Pzs[j, 0] * com[a][0] + Pzs[j, 1] * com[a][1] + Pzs[j, 2] * com[a][2]
+            bz[a, j] = zs[a, j] - ref_offset[j, a]
             bv[a, j] = Pvs[j, 0] * com[a][0] + Pvs[j, 1] * com[a][1] + Pvs[j, 2] * com[a][2] - velocity_ref[j, a]
     H = H_const.copy()
     g = np.empty(nw)
@@ -261,9 +263,7 @@ def _qp(H_const, Pzs, Pzu, Pvs, Pvu, com_x, com_y, velocity_ref, Hs, hs, anchor_
                 A[m, N + i] = hy * Pzu[j, i]
             for c in range(4):
                 A[m, nu + c] = -(hx * anchor_S[j, 0, c] + hy * anchor_S[j, 1, c])
-            zx = Pzs[j, 0] * com_x[0] + Pzs[j, 1] * com_x[1] + Pzs[j, 2] * com_x[2]
-            zy = Pzs[j, 0] * com_y[0] + Pzs[j, 1] * com_y[1] + Pzs[j, 2] * com_y[2]
-            upper[m] = hs[j, e] + (hx * (anchor_offset[j, 0] - zx) + hy * (anchor_offset[j, 1] - zy))
+            upper[m] = hs[j, e] + (hx * (anchor_offset[j, 0] - zs[0, j]) + hy * (anchor_offset[j, 1] - zs[1, j]))
             rows[m] = MAX_EDGES * j + e
             m += 1
     for r in range(reach.shape[0]):

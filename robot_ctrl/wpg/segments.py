@@ -132,7 +132,8 @@ def horizon_supports(durations, counts, feet, zmp, sample_time, horizon, length,
             soles = np.empty((n, 3))
             soles[0, 0], soles[0, 1], soles[0, 2] = 0.0, 0.0, anchor[2]
             for i in range(1, n):
-                soles[i, 0], soles[i, 1], soles[i, 2] = feet[k, i, 0] - anchor[0], feet[k, i, 1] - anchor[1], feet[k, i, 2]
+                soles[i, 0], soles[i, 1] = feet[k, i, 0] - anchor[0], feet[k, i, 1] - anchor[1]
+                soles[i, 2] = feet[k, i, 2]
             piece_H, piece_h = sole_halfplanes(soles, length, width)
         H[j, :piece_h.size] = piece_H
         h[j, :piece_h.size] = piece_h
