@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
+from robot_ctrl.kernels import FLOAT, INDICES, MATRIX, VECTOR, kernel
 from robot_ctrl.sot.task import Task
 
 
@@ -14,29 +15,48 @@ class ComTask(Task):
 
     def __init__(self, name: str = "com", axes=(0, 1, 2), locked_dofs=(), **kw):
         super().__init__(name, **kw)
-        self.axes = slice(None) if tuple(axes) == (0, 1, 2) else np.asarray(axes)  # all: a view, not a copy
-        self.locked_dofs = np.asarray(locked_dofs, dtype=int)
-        self._free: np.ndarray | None = None  # 1 on the dofs the task may use, 0 on the locked ones (by nv)
+        self.axes = np.asarray(axes, dtype=np.int64)
+        self.locked_dofs = np.asarray(locked_dofs, dtype=np.int64)
         self.target = np.zeros(3)
         self.target_velocity = np.zeros(3)
 
     def set_target(self, position: np.ndarray, velocity: np.ndarray | None = None) -> None:
-        self.target = np.asarray(position, dtype=float)
-        self.target_velocity = np.zeros(3) if velocity is None else np.asarray(velocity, dtype=float)
+        self.target = np.ascontiguousarray(position, dtype=float)
+        self.target_velocity = np.zeros(3) if velocity is None else np.ascontiguousarray(velocity, dtype=float)
 
     def error_and_jacobian(self, model, data, q):
-        # From the joint Jacobians the solver computed for q; also updates data.com[0].
-        J = pin.jacobianCenterOfMass(model, data, False)
-        if self.locked_dofs.size:
-            if self._free is None or self._free.size != model.nv:
-                self._free = np.ones(model.nv)
-                self._free[self.locked_dofs] = 0.0
-            J *= self._free  # a product rather than an indexed assignment: this runs every tick
-        return (self.target - data.com[0])[self.axes], J[self.axes]
+        J, e = self._weighted_rows(model, data, 1.0, 1.0, np.zeros(3))
+        return e, J
+
+    def rows(self, model, data, q):
+        return self._weighted_rows(model, data, self.gain, self.weight, self.target_velocity)
 
     def error(self, model, data, q):
-        # The CoM that error_and_jacobian left in data.com[0]: it does not depend on the target.
+        # The CoM that the last rows left in data.com[0]: it does not depend on the target.
         return (self.target - data.com[0])[self.axes]
 
     def feedforward(self):
         return self.target_velocity[self.axes]
+
+    def _weighted_rows(self, model, data, gain: float, weight: float, feedforward: np.ndarray):
+        # From the joint Jacobians the solver computed for q; also updates data.com[0].
+        J = pin.jacobianCenterOfMass(model, data, False)
+        return com_rows(J, self.locked_dofs, data.com[0], self.target, np.asarray(feedforward, dtype=float),
+                        gain, weight, self.axes)
+
+
+@kernel((MATRIX, INDICES, VECTOR, VECTOR, VECTOR, FLOAT, FLOAT, INDICES))
+def com_rows(J, locked, com, target, feedforward, gain, weight, axes):
+    """The task's rows ``(weight J[axes], weight (gain (c* − c)[axes] + v_ff[axes]))`` with the
+    ``locked`` columns of the CoM Jacobian ``J`` zeroed. Compiled, as the frame tasks' rows."""
+    nv = J.shape[1]
+    A = np.empty((axes.size, nv))
+    b = np.empty(axes.size)
+    for k in range(axes.size):
+        i = axes[k]
+        for c in range(nv):
+            A[k, c] = weight * J[i, c]
+        for c in locked:
+            A[k, c] = 0.0
+        b[k] = weight * (gain * (target[i] - com[i]) + feedforward[i])
+    return A, b

@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pinocchio as pin
 
+from robot_ctrl.kernels import FLOAT, FORTRAN_MATRIX, INDICES, MATRIX, VECTOR, kernel
 from robot_ctrl.sot.task import Task
 
 _AXES = {"x": 0, "y": 1, "z": 2, "rx": 3, "ry": 4, "rz": 5}
+_NO_FEEDFORWARD = np.zeros(6)
 
 
 class FrameTask(Task):
@@ -21,12 +25,8 @@ class FrameTask(Task):
     def __init__(self, name: str, frame_id: int, axes=("x", "y", "z", "rx", "ry", "rz"), **kw):
         super().__init__(name, **kw)
         self.frame_id = frame_id
-        rows = np.array([_AXES[a] for a in axes])
-        # Only the parts of the error that the axes ask for are computed, and the rows are taken as
-        # slices where they can be: this runs for every frame task on every tick.
-        self._linear, self._angular = bool((rows < 3).any()), bool((rows >= 3).any())
-        self._rows, self._all_rows = _as_slice(rows), rows.tolist() == list(range(6))
-        self._error_rows = _as_slice(rows - (0 if self._linear else 3))
+        self._rows = np.array([_AXES[a] for a in axes], dtype=np.int64)
+        self._support: tuple[pin.Model, np.ndarray] | None = None  # the model, and the columns the frame moves with
         self.target = pin.SE3.Identity()
         self.target_velocity = np.zeros(6)  # [linear (m/s), angular (rad/s)] in the world frame
 
@@ -36,33 +36,125 @@ class FrameTask(Task):
 
     @target.setter
     def target(self, pose: pin.SE3) -> None:
-        # Its translation and rotation read once: each read of an SE3's member is a copy.
-        self._target, self._target_translation, self._target_rotation = pose, pose.translation, pose.rotation
+        self._target, self._target_homogeneous = pose, pose.homogeneous  # read once: each read is a copy
 
     def set_target(self, pose: pin.SE3, velocity: np.ndarray | None = None) -> None:
         self.target = pose
-        self.target_velocity = np.zeros(6) if velocity is None else np.asarray(velocity, dtype=float)
+        self.target_velocity = np.zeros(6) if velocity is None else np.ascontiguousarray(velocity, dtype=float)
 
     def error_and_jacobian(self, model, data, q):
-        current = data.oMf[self.frame_id]
-        J = pin.getFrameJacobian(model, data, self.frame_id, pin.LOCAL_WORLD_ALIGNED)
-        if not self._angular:
-            e = self._target_translation - current.translation
-        elif not self._linear:
-            e = pin.log3(self._target_rotation @ current.rotation.T)
-        else:
-            e = np.concatenate((self._target_translation - current.translation,
-                                pin.log3(self._target_rotation @ current.rotation.T)))
-        if self._all_rows:
-            return e, J
-        return e[self._error_rows], J[self._rows]
+        J, e = self._weighted_rows(model, data, 1.0, 1.0, _NO_FEEDFORWARD)
+        return e, J
+
+    def rows(self, model, data, q):
+        return self._weighted_rows(model, data, self.gain, self.weight, self.target_velocity)
 
     def feedforward(self):
-        return self.target_velocity if self._all_rows else self.target_velocity[self._rows]
+        return self.target_velocity[self._rows]
+
+    def _weighted_rows(self, model, data, gain: float, weight: float, feedforward: np.ndarray):
+        """``(weight J, weight (gain e + v_ff))`` on the task's axes; ``feedforward``: all six."""
+        if self._support is None or self._support[0] is not model:
+            self._support = (model, support_columns(model, model.frames[self.frame_id].parentJoint))
+        return frame_rows(data.J, self._support[1], data.oMf[self.frame_id].homogeneous, self._target_homogeneous,
+                          self._rows, np.asarray(feedforward, dtype=float), gain, weight)
 
 
-def _as_slice(rows: np.ndarray) -> slice | np.ndarray:
-    """``rows`` as a slice when they are consecutive (a view rather than a copy), else as they are."""
-    if rows.size and (np.diff(rows) == 1).all():
-        return slice(int(rows[0]), int(rows[-1]) + 1)
-    return rows
+def support_columns(model: pin.Model, joint: int) -> np.ndarray:
+    """The velocity indices of the joints from the root to ``joint``: the columns of its frames'
+    Jacobians that can be nonzero."""
+    joints = [model.joints[j] for j in model.supports[joint] if j > 0]  # not the universe
+    return np.array([v for joint in joints for v in range(joint.idx_v, joint.idx_v + joint.nv)], dtype=np.int64)
+
+
+@kernel((FORTRAN_MATRIX, INDICES, MATRIX, MATRIX, INDICES, VECTOR, FLOAT, FLOAT))
+def frame_rows(J, support, current, target, rows, feedforward, gain, weight):
+    """The task's rows ``(weight Jf[rows], weight (gain e[rows] + v_ff[rows]))`` for the frame at
+    the homogeneous pose ``current`` and its ``target`` (world frame): ``e = [p* − p, log3(R* Rᵀ)]``
+    and ``Jf`` the frame Jacobian in ``LOCAL_WORLD_ALIGNED``, from the joints' world Jacobians
+    ``J`` (Pinocchio's ``data.J`` after ``computeJointJacobians``) on the ``support`` columns:
+    ``Jf = [J_v − p × J_ω; J_ω]``, as ``getFrameJacobian`` computes it. Compiled: the dozen small
+    numpy calls per task and tick cost several times the arithmetic."""
+    A = np.zeros((rows.size, J.shape[1]))
+    b = np.empty(rows.size)
+    error = np.zeros(6)
+    linear = angular = False
+    for r in rows:
+        linear, angular = linear or r < 3, angular or r >= 3
+    if linear:
+        for i in range(3):
+            error[i] = target[i, 3] - current[i, 3]
+    if angular:
+        R = np.empty((3, 3))
+        for i in range(3):
+            for j in range(3):
+                R[i, j] = target[i, 0] * current[j, 0] + target[i, 1] * current[j, 1] + target[i, 2] * current[j, 2]
+        log3(R, error[3:])
+    px, py, pz = current[0, 3], current[1, 3], current[2, 3]
+    column = np.empty(6)
+    for c in support:
+        wx, wy, wz = J[3, c], J[4, c], J[5, c]
+        column[0] = J[0, c] - (py * wz - pz * wy)
+        column[1] = J[1, c] - (pz * wx - px * wz)
+        column[2] = J[2, c] - (px * wy - py * wx)
+        column[3], column[4], column[5] = wx, wy, wz
+        for k in range(rows.size):
+            A[k, c] = weight * column[rows[k]]
+    for k in range(rows.size):
+        b[k] = weight * (gain * error[rows[k]] + feedforward[rows[k]])
+    return A, b
+
+
+_EPS = np.finfo(float).eps
+_PREC = _EPS ** (1.0 / 3.0)  # Pinocchio's TaylorSeriesExpansion<double>::precision<2>()
+
+
+@kernel()
+def log3(R, out):
+    """``out = log3(R)``, the rotation vector of the rotation matrix ``R``: Pinocchio's ``log3``
+    (spatial/log.hxx) written out, for the compiled task rows: ``R`` renormalized, ``θ = acos((tr R
+    − 1) / 2)``, ``out = θ / (2 sin θ) (R − Rᵀ)^∨``, with its series near 0 and its axis from the
+    diagonal near π."""
+    c0, c1 = R[:, 0] / math.sqrt(R[0, 0] ** 2 + R[1, 0] ** 2 + R[2, 0] ** 2), \
+        R[:, 1] / math.sqrt(R[0, 1] ** 2 + R[1, 1] ** 2 + R[2, 1] ** 2)
+    c2 = _cross(c0, c1)
+    c0 = _cross(c1, c2)
+    Rn = np.empty((3, 3))
+    Rn[:, 0], Rn[:, 1], Rn[:, 2] = c0, c1, c2
+    tr = Rn[0, 0] + Rn[1, 1] + Rn[2, 2]
+    cos_value = (tr - 1.0) / 2.0
+    if cos_value >= -1.0 + _PREC:
+        acos_expansion = math.sqrt(2.0 * (1.0 - cos_value) + _EPS * _EPS)
+        if tr > 3.0 - _PREC:
+            theta = acos_expansion
+        elif tr >= -1.0 + _PREC:
+            theta = math.acos(cos_value)
+        else:
+            theta = math.pi - acos_expansion
+        a0, a1, a2 = 0.5 * (Rn[2, 1] - Rn[1, 2]), 0.5 * (Rn[0, 2] - Rn[2, 0]), 0.5 * (Rn[1, 0] - Rn[0, 1])
+        if theta >= _PREC:
+            t = theta / math.sin(theta)
+        else:
+            n2 = a0 * a0 + a1 * a1 + a2 * a2
+            t = 1.0 + n2 / 6.0 + n2 * n2 * 3.0 / 40.0
+        out[0], out[1], out[2] = t * a0, t * a1, t * a2
+        return
+    # Near π: the axis from the largest diagonal entry (Pinocchio's compute_theta_axis).
+    values = np.array([2.0 * Rn[k, k] - tr + 1.0 for k in range(3)])
+    i0 = (0 if values[0] >= values[2] else 2) if values[0] >= values[1] else (1 if values[1] >= values[2] else 2)
+    i1, i2 = (i0 + 1) % 3, (i0 + 2) % 3
+    s = math.sqrt(values[i0] + _EPS + _EPS * _EPS) * (1.0 if Rn[i2, i1] >= Rn[i1, i2] else -1.0)
+    axis = np.empty(3)
+    axis[i0] = s / 2.0
+    axis[i1] = 1.0 / (2.0 * s) * (Rn[i1, i0] + Rn[i0, i1])
+    axis[i2] = 1.0 / (2.0 * s) * (Rn[i2, i0] + Rn[i0, i2])
+    w = 1.0 / (2.0 * s) * (Rn[i2, i1] - Rn[i1, i2])
+    norm = math.sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2])
+    theta = 2.0 * math.atan2(norm, w)
+    for k in range(3):
+        out[k] = theta * (axis[k] / norm)
+
+
+@kernel()
+def _cross(a, b):
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
