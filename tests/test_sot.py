@@ -393,3 +393,34 @@ def test_a_configs_ik_range_keeps_an_arm_off_the_torso():
         rolls[name] = ik.q[robot.q_index][roll]
         assert np.linalg.norm(ik.pose("right_hand").translation - target) < 0.005
     assert rolls["config"] <= 1e-9 and rolls["urdf"] > 0.1, rolls
+
+
+def test_the_compiled_task_rows_equal_pinocchios_jacobians_and_log3(talos):
+    """The frame and CoM tasks build their rows from data.J and a log3 of their own: the Jacobians
+    must equal Pinocchio's getFrameJacobian / jacobianCenterOfMass, and the rotation error its log3,
+    at generic angles, near 0 and near π."""
+    model, data = talos.pin, talos.pin.createData()
+    rng = np.random.default_rng(3)
+    q = pin.randomConfiguration(model, -np.ones(model.nq), np.ones(model.nq))
+    q[3:7] /= np.linalg.norm(q[3:7])
+    pin.computeJointJacobians(model, data, q)
+    pin.updateFramePlacements(model, data)
+    hand = FrameTask("right_hand", talos.frame_ids["right_hand"], weight=2.0, gain=3.0)
+    current = data.oMf[hand.frame_id]
+    for angle in (1e-9, 1e-4, 0.7, 2.5, np.pi - 1e-3, np.pi - 1e-7):
+        axis = rng.normal(size=3)
+        rotation = pin.exp3(angle * axis / np.linalg.norm(axis)) @ current.rotation
+        hand.set_target(pin.SE3(rotation, current.translation + [0.1, -0.2, 0.3]), velocity=rng.normal(size=6))
+        A, b = hand.rows(model, data, q)
+        e = np.concatenate([hand.target.translation - current.translation,
+                            pin.log3(hand.target.rotation @ current.rotation.T)])
+        np.testing.assert_array_equal(A, 2.0 * pin.getFrameJacobian(model, data, hand.frame_id, pin.LOCAL_WORLD_ALIGNED))
+        np.testing.assert_allclose(b, 2.0 * (3.0 * e + hand.target_velocity), rtol=0, atol=1e-12 / (np.pi - angle))
+    com = ComTask(axes=(0, 2), locked_dofs=[7, 30])
+    com.set_target(np.array([0.1, 0.2, 0.3]))
+    e, J = com.error_and_jacobian(model, data, q)
+    expected = pin.jacobianCenterOfMass(model, data, False)[[0, 2]]  # from the same data.J, as the task's
+    expected[:, [7, 30]] = 0.0
+    np.testing.assert_array_equal(J, expected)
+    np.testing.assert_array_equal(e, (com.target - data.com[0])[[0, 2]])
+    np.testing.assert_allclose(data.com[0], pin.centerOfMass(model, data, q), rtol=0, atol=1e-15)
