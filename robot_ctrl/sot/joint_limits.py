@@ -44,8 +44,9 @@ class JointLimits:
     it. ``v_max`` is the URDF velocity limit times the config's fraction. ``a_max`` (None: no
     acceleration limit; ∞ on a joint: none on it) is ``share × effort / M_ii``, the config's share
     of the effort limit over the joint's inertia at half-sitting: what the servo can accelerate the
-    joint with, the rest of its torque left for gravity, friction and the other joints' coupling. A reference that changes velocity
-    faster than that is a torque the servo's damping asks for and cannot give. A configuration
+    joint with, the rest of its torque left for gravity, friction and the other joints' coupling.
+    A reference that changes velocity faster than that is a torque the servo's damping asks for and
+    cannot give. A configuration
     outside the hard URDF limits ``[hard_min, hard_max]``, or one holding a NaN or ∞, raises
     :class:`LimitViolation`.
     """
@@ -90,9 +91,8 @@ class JointLimits:
         acceleration bound, as at a start)."""
         lo, hi = np.empty(self.q_index.size), np.empty(self.q_index.size)
         a_max, a_brake = self._rates
-        within = _velocity_bounds(q, self.q_index, dt, self.hard_min - tol, self.hard_max + tol, self.q_min,
-                                  self.q_max, self.v_max, a_brake, a_max, _NO_PREVIOUS if previous is None else previous,
-                                  lo, hi)
+        within = _velocity_bounds(q, self.q_index, dt, self.hard_min, self.hard_max, tol, self.q_min, self.q_max,
+                                  self.v_max, a_brake, a_max, _NO_PREVIOUS if previous is None else previous, lo, hi)
         if within == _NOT_FINITE:
             raise LimitViolation("configuration contains NaN or inf")
         if within == _OUTSIDE:
@@ -114,19 +114,20 @@ _NO_PREVIOUS = np.zeros(0)  # no previous velocity: no acceleration bound
 _WITHIN, _OUTSIDE, _NOT_FINITE = 0, 1, 2  # what _velocity_bounds found
 
 
-@kernel((VECTOR, INDICES, FLOAT, VECTOR, VECTOR, VECTOR, VECTOR, VECTOR, VECTOR, VECTOR, VECTOR, VECTOR, VECTOR))
-def _velocity_bounds(q, q_index, dt, hard_min, hard_max, q_min, q_max, v_max, a_brake, a_max, previous, lo, hi) -> int:
+@kernel((VECTOR, INDICES, FLOAT, VECTOR, VECTOR, FLOAT, VECTOR, VECTOR, VECTOR, VECTOR, VECTOR, VECTOR, VECTOR, VECTOR))
+def _velocity_bounds(q, q_index, dt, hard_min, hard_max, tol, q_min, q_max, v_max, a_brake, a_max, previous, lo,
+                     hi) -> int:
     """:meth:`JointLimits.bounds` joint by joint into ``lo`` and ``hi``: ``_WITHIN``; or
     ``_NOT_FINITE`` when the configuration ``q`` holds a NaN or ∞, ``_OUTSIDE`` when a joint lies
-    outside ``[hard_min, hard_max]``. Compiled: it runs every tick on a few dozen joints, where
-    numpy's cost per call outweighs the arithmetic. ∞ in ``a_brake`` or ``a_max``: no such bound
-    on that joint; an empty ``previous``: no acceleration bound."""
+    outside ``[hard_min − tol, hard_max + tol]``. Compiled: it runs every tick on a few dozen joints,
+    where numpy's cost per call outweighs the arithmetic. ∞ in ``a_brake`` or ``a_max``: no such
+    bound on that joint; an empty ``previous``: no acceleration bound."""
     for x in q:
         if not np.isfinite(x):
             return _NOT_FINITE
     for j in range(q_index.size):
         qj = q[q_index[j]]
-        if not hard_min[j] <= qj <= hard_max[j]:
+        if not hard_min[j] - tol <= qj <= hard_max[j] + tol:
             return _OUTSIDE
         to_min, to_max = (q_min[j] - qj) / dt, (q_max[j] - qj) / dt
         a = a_brake[j]

@@ -73,10 +73,11 @@ class KKTFastPath:
     def prepare(cls, stacked, higher, spans, retargetable, lo, hi, bounded, mu: float,
                 guess: ActiveSet) -> KKTFastPath | None:
         """The KKT matrix of the levels ``stacked`` (their ``(A, b)``; ``higher``: all but the last
-        stacked into one ``(E, f)``; ``spans``: each task's level and rows), with the ``guess`` of active bounds as equalities (without them if that makes
-        the matrix singular), factorized and solved for the prepared targets, for unit changes of
-        the ``retargetable`` tasks' rows of ``f`` and of the active bounds' values; None when the
-        stack has one level or the matrix is singular."""
+        stacked into one ``(E, f)``; ``spans``: each task's level and rows), with the ``guess`` of
+        active bounds as equalities (without them if that makes the matrix singular), factorized
+        and solved for the prepared targets, for unit changes of the ``retargetable`` tasks' rows
+        of ``f`` and of the active bounds' values; None when the stack has one level or the matrix
+        is singular."""
         if len(stacked) < 2:
             return None
         E, f = higher

@@ -80,7 +80,8 @@ class WholeBodyIK:
         self.q[robot.q_index] = np.where(near, np.clip(joints, robot.lower, robot.upper), joints)
         self._stale = True
         self._prepared: tuple | None = None  # (q it was prepared at, dt, retargetable tasks)
-        self.v = np.zeros(robot.pin.nv)  # the last step's velocity (the start at rest): the acceleration limits' reference
+        # The last step's velocity (the start at rest): the acceleration limits' reference.
+        self.v = np.zeros(robot.pin.nv)
         ids = robot.frame_ids
         self.feet = {s: FrameTask(f"{s}_foot", ids[f"{s}_foot"], gain=gain) for s in SIDES}
         locked = hand_tool_dofs(robot) if balance_with_arms else upper_body_dofs(robot)
