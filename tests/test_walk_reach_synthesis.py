@@ -319,3 +319,17 @@ def test_a_query_beyond_the_demonstrations_is_held_inside_them(talos):
     for distance in (1.10, 1.15, 1.25):
         plan = Synthesizer(feasible, WalkReachGoal(distance, "front_left")).plan
         assert min(stands) - 1e-9 <= plan[-1].duration <= max(stands) + 1e-9
+
+
+def test_the_commanders_posture_ahead_interpolates_the_rollout_as_np_interp():
+    """The posture the IK and the dynamic filter follow ahead of now, interpolated from the preview
+    for all joints at once, equals np.interp joint by joint: between samples, at them, outside."""
+    from robot_ctrl.control.walk_reach_commander import interpolated_row
+
+    rng = np.random.default_rng(0)
+    times = np.cumsum(rng.uniform(0.001, 0.02, 80))
+    values = rng.normal(size=(80, 14))
+    values[:, 3] = 0.25  # a joint that holds still
+    for t in [*rng.uniform(times[0] - 0.1, times[-1] + 0.1, 2000), *times, times[0] - 1.0, times[-1] + 1.0]:
+        expected = [np.interp(t, times, values[:, j]) for j in range(values.shape[1])]
+        np.testing.assert_array_equal(interpolated_row(t, times, values), expected)

@@ -37,6 +37,7 @@ from robot_ctrl.control.drawer_targets import DrawerTargets
 from robot_ctrl.control.synthesized_body import SynthesizedBody
 from robot_ctrl.control.walking_controller import PlanSample, WalkingController
 from robot_ctrl.geometry import SIDES, minimum_jerk, rotation
+from robot_ctrl.kernels import FLOAT, MATRIX, VECTOR, kernel
 from robot_ctrl.synthesis.primitives import WalkReachPrimitives
 from robot_ctrl.synthesis.step_planning import BETA, Action
 from robot_ctrl.synthesis.synthesizer import SynthesisOutput, SynthesisPreview, Synthesizer, WalkReachGoal
@@ -170,7 +171,7 @@ class WalkReachCommander:
         q = self._posture_now.copy()
         p = self._preview
         times = self._preview_t + p.t / self.speed
-        q[self.body.upper] = [np.interp(t, times, p.upper_body_q[:, j]) for j in range(len(self.body.upper))]
+        q[self.body.upper] = interpolated_row(t, times, p.upper_body_q)
         return q
 
     # Per tick -------------------------------------------------------------------------------------
@@ -310,3 +311,29 @@ class WalkReachCommander:
         self.boundaries.append((t, self.synth.plan[0].action))
         self.log(f"t = {t:6.2f} s  synthesis starts {self.synth_start_advance:.3f} m from the start: actions "
                  f"{[p.action for p in self.synth.plan]}, lengths {[round(p.length, 3) for p in self.synth.plan]} m")
+
+
+@kernel((FLOAT, VECTOR, MATRIX))
+def interpolated_row(t, times, values):
+    """``np.interp(t, times, values[:, j])`` for every column ``j`` at once (the same arithmetic:
+    the end values outside ``times``, ``slope (t − tᵢ) + vᵢ`` between); ``times`` increasing.
+    Compiled: a posture ahead of now is asked on every tick, a dozen joints of the rollout."""
+    n, columns = values.shape
+    out = np.empty(columns)
+    if t >= times[n - 1]:
+        i = n - 1
+    elif t < times[0]:
+        i = 0
+    else:
+        i = np.searchsorted(times, t, side="right") - 1
+    if t < times[0] or t >= times[n - 1] or t == times[i]:
+        out[:] = values[i]
+        return out
+    for j in range(columns):
+        slope = (values[i + 1, j] - values[i, j]) / (times[i + 1] - times[i])
+        out[j] = slope * (t - times[i]) + values[i, j]
+        if np.isnan(out[j]):
+            out[j] = slope * (t - times[i + 1]) + values[i + 1, j]
+            if np.isnan(out[j]) and values[i, j] == values[i + 1, j]:
+                out[j] = values[i, j]
+    return out
