@@ -8,6 +8,8 @@ import pinocchio as pin
 from robot_ctrl.kernels import FLOAT, INDICES, MATRIX, VECTOR, kernel
 from robot_ctrl.sot.task import Task
 
+_NO_FEEDFORWARD = np.zeros(3)
+
 
 class ComTask(Task):
     """Error ``c* - c`` [m] (world frame), Jacobian ``∂c/∂v`` from Pinocchio. ``axes`` ⊂ {0, 1, 2};
@@ -25,7 +27,7 @@ class ComTask(Task):
         self.target_velocity = np.zeros(3) if velocity is None else np.ascontiguousarray(velocity, dtype=float)
 
     def error_and_jacobian(self, model, data, q):
-        J, e = self._weighted_rows(model, data, 1.0, 1.0, np.zeros(3))
+        J, e = self._weighted_rows(model, data, 1.0, 1.0, _NO_FEEDFORWARD)
         return e, J
 
     def rows(self, model, data, q):

@@ -115,8 +115,8 @@ def log3(R, out):
     (spatial/log.hxx) written out, for the compiled task rows: ``R`` renormalized, ``θ = acos((tr R
     − 1) / 2)``, ``out = θ / (2 sin θ) (R − Rᵀ)^∨``, with its series near 0 and its axis from the
     diagonal near π."""
-    c0, c1 = R[:, 0] / math.sqrt(R[0, 0] ** 2 + R[1, 0] ** 2 + R[2, 0] ** 2), \
-        R[:, 1] / math.sqrt(R[0, 1] ** 2 + R[1, 1] ** 2 + R[2, 1] ** 2)
+    c0 = R[:, 0] / math.sqrt(R[0, 0] ** 2 + R[1, 0] ** 2 + R[2, 0] ** 2)
+    c1 = R[:, 1] / math.sqrt(R[0, 1] ** 2 + R[1, 1] ** 2 + R[2, 1] ** 2)
     c2 = _cross(c0, c1)
     c0 = _cross(c1, c2)
     Rn = np.empty((3, 3))

@@ -46,9 +46,8 @@ class JointLimits:
     of the effort limit over the joint's inertia at half-sitting: what the servo can accelerate the
     joint with, the rest of its torque left for gravity, friction and the other joints' coupling.
     A reference that changes velocity faster than that is a torque the servo's damping asks for and
-    cannot give. A configuration
-    outside the hard URDF limits ``[hard_min, hard_max]``, or one holding a NaN or ∞, raises
-    :class:`LimitViolation`.
+    cannot give. A configuration outside the hard URDF limits ``[hard_min, hard_max]``, or one
+    holding a NaN or ∞, raises :class:`LimitViolation`.
     """
 
     q_index: np.ndarray
