@@ -34,26 +34,25 @@ def static_torques(model: pin.Model, data: pin.Data, q: np.ndarray, sole_frames:
     ``shares`` must be positive; they are normalized to sum to one. ``com_acceleration`` (3,) [m/s²],
     world frame, adds the inertial load of the whole body accelerating with the CoM.
     """
-    alpha = np.asarray(shares, dtype=float)
-    gravity = model.gravity.linear.copy()
+    gravity = model.gravity.linear
     effective = gravity if com_acceleration is None else gravity - com_acceleration
-    model.gravity.linear = effective
-    try:
-        g = pin.computeGeneralizedGravity(model, data, q).copy()
-    finally:
-        model.gravity.linear = gravity
-    weight = pin.computeTotalMass(model) * float(np.sqrt(effective @ effective))
     pin.computeJointJacobians(model, data, q)
     J = np.vstack([pin.getFrameJacobian(model, data, f, pin.LOCAL) for f in sole_frames])  # (6k, nv)
-    tau, f = _balanced(J, g, alpha, weight)
+    tau, f = _balanced(J, pin.jacobianCenterOfMass(model, data, False), pin.computeTotalMass(model),
+                       np.ascontiguousarray(effective, dtype=float), np.asarray(shares, dtype=float))
     return tau, list(f.reshape(-1, 6))
 
 
-@kernel((MATRIX, VECTOR, VECTOR, FLOAT))
-def _balanced(J, g, shares, weight):
+@kernel((MATRIX, MATRIX, FLOAT, VECTOR, VECTOR))
+def _balanced(J, J_com, mass, gravity, shares):
     """``(τ, f)`` of the module docstring from the soles' stacked LOCAL Jacobians ``J`` (6k, nv), the
-    generalized gravity ``g`` (nv,), the contact shares (k,) and the weight [N]. Compiled: the
-    walking controller asks it on every tick, a handful of small products."""
+    CoM Jacobian ``J_com`` (3, nv), the total mass [kg], the (effective) gravity (3,) [m/s²] and the
+    contact shares (k,). The generalized gravity is ``g = −m J_comᵀ g⃗``, the gradient of the
+    potential energy (equal to Pinocchio's ``computeGeneralizedGravity`` to rounding, without
+    changing the model's gravity for the d'Alembert term). Compiled: the walking controller asks it
+    on every tick, a handful of small products."""
+    g = -mass * (J_com.T @ gravity)
+    weight = mass * np.sqrt(gravity @ gravity)
     alpha = shares / shares.sum()
     rows = J.shape[0]
     f_ref = np.zeros(rows)
