@@ -27,8 +27,8 @@ from robot_ctrl.kernels import FLOAT, MATRIX, VECTOR, kernel
 from robot_ctrl.robot.model import RobotModel, configuration
 
 
-def static_torques(model: pin.Model, data: pin.Data, q: np.ndarray, sole_frames: list[int],
-                   shares: list[float], com_acceleration: np.ndarray | None = None) -> tuple[np.ndarray, list[np.ndarray]]:
+def static_torques(model: pin.Model, data: pin.Data, q: np.ndarray, sole_frames: list[int], shares: list[float],
+                   com_acceleration: np.ndarray | None = None) -> tuple[np.ndarray, list[np.ndarray]]:
     """Return ``(tau, wrenches)``: torques (nv, base rows ≈ 0) and one sole-frame wrench per contact.
 
     ``shares`` must be positive; they are normalized to sum to one. ``com_acceleration`` (3,) [m/s²],
@@ -67,7 +67,8 @@ def _balanced(J, J_com, mass, gravity, shares):
     return g - J.T @ f, f
 
 
-def weight_shares(com_xy: np.ndarray, left_xy: np.ndarray, right_xy: np.ndarray, floor: float = 0.02) -> tuple[float, float]:
+def weight_shares(com_xy: np.ndarray, left_xy: np.ndarray, right_xy: np.ndarray,
+                  floor: float = 0.02) -> tuple[float, float]:
     """Left/right weight shares from the CoM's position along the segment between the sole centres
     (0 at the right foot, 1 at the left), kept in ``[floor, 1 - floor]`` so both stay positive."""
     axis = left_xy - right_xy
