@@ -319,16 +319,14 @@ def interpolated_row(t, times, values):
     the end values outside ``times``, ``slope (t − tᵢ) + vᵢ`` between); ``times`` increasing.
     Compiled: a posture ahead of now is asked on every tick, a dozen joints of the rollout."""
     n, columns = values.shape
-    out = np.empty(columns)
+    if t < times[0]:
+        return values[0].copy()
     if t >= times[n - 1]:
-        i = n - 1
-    elif t < times[0]:
-        i = 0
-    else:
-        i = np.searchsorted(times, t, side="right") - 1
-    if t < times[0] or t >= times[n - 1] or t == times[i]:
-        out[:] = values[i]
-        return out
+        return values[n - 1].copy()
+    i = np.searchsorted(times, t, side="right") - 1
+    if t == times[i]:
+        return values[i].copy()
+    out = np.empty(columns)
     for j in range(columns):
         slope = (values[i + 1, j] - values[i, j]) / (times[i + 1] - times[i])
         out[j] = slope * (t - times[i]) + values[i, j]

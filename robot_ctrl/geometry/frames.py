@@ -77,5 +77,5 @@ def relative_pose(pose: np.ndarray, origin: np.ndarray) -> np.ndarray:
 def base_pose_xy_yaw(base_pos: np.ndarray, base_quat_xyzw: np.ndarray) -> np.ndarray:
     """Planar pose (x, y, yaw) of a base from its world position and quaternion (x, y, z, w)."""
     x, y, z, w = np.asarray(base_quat_xyzw, dtype=float).tolist()  # floats: numpy's scalars cost more per operation
-    yaw = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+    yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
     return np.array([base_pos[0], base_pos[1], yaw])

@@ -19,7 +19,7 @@ import pinocchio as pin
 from robot_ctrl.geometry import SIDES
 from robot_ctrl.robot.model import RobotModel
 from robot_ctrl.sot.com_task import ComTask
-from robot_ctrl.sot.frame_task import FrameTask
+from robot_ctrl.sot.frame_task import FrameTask, support_columns
 from robot_ctrl.sot.joint_limits import JointLimits
 from robot_ctrl.sot.posture_task import PostureTask
 from robot_ctrl.sot.solver import HierarchicalQP
@@ -40,8 +40,8 @@ def chain_dofs(robot: RobotModel, role: str) -> np.ndarray:
     joint (a leg for ``left_foot``, the torso joints for ``torso``), found in the kinematic tree:
     no joint names, so that any robot's config serves."""
     model = robot.pin
-    joint = model.frames[robot.frame_ids[role]].parentJoint
-    return np.array([model.joints[j].idx_v for j in model.supports[joint] if model.joints[j].idx_v >= 6], dtype=int)
+    columns = support_columns(model, model.frames[robot.frame_ids[role]].parentJoint)
+    return columns[columns >= 6]  # not the floating base's
 
 
 def upper_body_dofs(robot: RobotModel) -> np.ndarray:
