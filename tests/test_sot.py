@@ -228,6 +228,34 @@ def test_fast_path_with_bounds_held_active_gives_the_level_by_level_solution(tal
     assert not level_by_level  # the fast path gave it
     np.testing.assert_allclose(fast, first, atol=1e-8)
 
+def test_the_feet_eliminated_kkt_solve_equals_the_full_one(talos, tasks):
+    """The fast path's KKT system with the feet eliminated (the legs' velocities from the base's) has
+    the full system's solution: the velocity and the bounds' multipliers, for the targets, for unit
+    changes of feet and CoM rows, with bounds held on a leg, a torso and an arm joint."""
+    feet, com, _, posture = tasks
+    data = talos.pin.createData()
+    rng = np.random.default_rng(6)
+    q = perturbed_half_sitting(talos, rng)
+    held_feet_and_moved_com(talos, data, q, feet, com, [0.003, 0.001, 0.0])
+    posture.set_target(q[talos.q_index] + rng.uniform(-0.05, 0.05, talos.nj))
+    pin.computeJointJacobians(talos.pin, data, q)
+    pin.updateFramePlacements(talos.pin, data)
+    rows = [t.rows(talos.pin, data, q) for t in (*feet, com)]
+    E, f = np.vstack([A for A, _ in rows]), np.concatenate([b for _, b in rows])
+    A, b = posture.rows(talos.pin, data, q)
+    elimination = kkt_fast_path.first_level_elimination(E[:12], 6)
+    legs = [talos.pin.joints[talos.pin.getJointId(f"leg_{s}_{i}_joint")].idx_v
+            for s in ("left", "right") for i in range(1, 7)]
+    np.testing.assert_array_equal(elimination[0], sorted(legs))
+    np.testing.assert_array_equal(elimination[1], np.arange(6))
+    dofs = np.array([legs[3], legs[8], 20, 30])
+    beta, unit_rows = rng.uniform(-0.1, 0.1, dofs.size), np.array([0, 7, 12, 14])
+    full = kkt_fast_path.kkt_solution(E, f, A, b, 1e-5, dofs, beta, unit_rows, *kkt_fast_path.NO_ELIMINATION)
+    reduced = kkt_fast_path.kkt_solution(E, f, A, b, 1e-5, dofs, beta, unit_rows, *elimination)
+    assert np.abs(full[:, 0]).max() > 0.1  # the targets move the robot
+    np.testing.assert_allclose(reduced, full, rtol=0, atol=1e-10 * np.abs(full).max())
+
+
 def test_prepared_solve_with_a_moved_target_equals_a_fresh_solve(talos, tasks):
     """prepare, move the CoM target, finish naming it: the solve that had the final target from the start
     (whether prepare was told the CoM would move or not, and for a task of the last level)."""

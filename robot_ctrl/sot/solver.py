@@ -42,7 +42,7 @@ import quadprog
 from scipy.linalg import lapack
 
 from robot_ctrl.sot.joint_limits import JointLimits, LimitViolation
-from robot_ctrl.sot.kkt_fast_path import NO_BOUNDS, KKTFastPath, bounds_lain_on
+from robot_ctrl.sot.kkt_fast_path import NO_BOUNDS, Elimination, KKTFastPath, bounds_lain_on, first_level_elimination
 from robot_ctrl.sot.pivoted_qr import PivotedQR
 from robot_ctrl.sot.task import Task
 
@@ -63,15 +63,19 @@ class InfeasibleError(RuntimeError):
 @dataclass(frozen=True)
 class _Layout:
     """Where the active tasks' rows lie, all stacked in priority order: each level's rows, and
-    each task's level and rows in it. It changes only when a task is switched on or off."""
+    each task's level and rows in it, and how the fast path eliminates the first level. It
+    changes only when a task is switched on or off."""
 
     tasks: list[list[Task]]  # the active tasks of each non-empty level
     levels: list[slice]
     spans: dict[Task, tuple[int, slice]]
+    elimination: Elimination
 
     @classmethod
-    def of(cls, levels: list[list[Task]], sizes: dict[Task, int]) -> _Layout:
-        """``levels``: every task by level; ``sizes``: the active ones' numbers of rows."""
+    def of(cls, levels: list[list[Task]], rows: dict[Task, tuple[np.ndarray, np.ndarray]], base_nv: int) -> _Layout:
+        """``levels``: every task by level; ``rows``: the active ones' ``(A, b)``; ``base_nv``: the
+        floating base's velocity dimension (0 for a fixed base)."""
+        sizes = {t: len(b) for t, (_, b) in rows.items()}
         tasks = [active for active in ([t for t in level if t in sizes] for level in levels) if active]
         slices, spans, start = [], {}, 0
         for k, level in enumerate(tasks):
@@ -80,7 +84,8 @@ class _Layout:
                 spans[task] = (k, slice(start - first, start - first + sizes[task]))
                 start += sizes[task]
             slices.append(slice(first, start))
-        return cls(tasks, slices, spans)
+        first = np.concatenate([rows[t][0] for t in tasks[0]])
+        return cls(tasks, slices, spans, first_level_elimination(first, base_nv))
 
 
 @dataclass
@@ -132,12 +137,12 @@ class HierarchicalQP:
         pin.updateFramePlacements(model, data)
         tasks = [t for level in self.levels for t in level if t.active]
         rows = [t.rows(model, data, q) for t in tasks]
-        layout = self._layout(tasks, rows)
+        layout = self._layout(model, tasks, rows)
         # One copy of all the rows; each level, and the higher levels together, are views of it.
         A_all, b_all = np.concatenate([A for A, _ in rows]), np.concatenate([b for _, b in rows])
         stacked = [(A_all[level], b_all[level]) for level in layout.levels]
         m = layout.levels[-1].start
-        fast = self._fast_path(stacked, (A_all[:m], b_all[:m]), layout.spans, retargetable, lo, hi)
+        fast = self._fast_path(stacked, (A_all[:m], b_all[:m]), layout, retargetable, lo, hi)
         self._prepared = _Prepared(model, data, q, lo, hi, layout, stacked, fast)
 
     def finish(self, retargeted: tuple[Task, ...] = (),
@@ -202,16 +207,18 @@ class HierarchicalQP:
         self._active = bounds_lain_on(v, lo, hi, bounded)
         return v
 
-    def _layout(self, tasks: list[Task], rows: list[tuple[np.ndarray, np.ndarray]]) -> _Layout:
+    def _layout(self, model: pin.Model, tasks: list[Task], rows: list[tuple[np.ndarray, np.ndarray]]) -> _Layout:
         key = (*tasks, *[b.size for _, b in rows])
         layout = self._layouts.get(key)
         if layout is None:
-            layout = self._layouts[key] = _Layout.of(self.levels, {t: len(b) for t, (_, b) in zip(tasks, rows)})
+            base = model.joints[1] if model.njoints > 1 else None
+            base_nv = base.nv if base is not None and base.shortname() == "JointModelFreeFlyer" else 0
+            layout = self._layouts[key] = _Layout.of(self.levels, dict(zip(tasks, rows)), base_nv)
         return layout
 
-    def _fast_path(self, stacked, higher, spans, retargetable, lo, hi) -> KKTFastPath | None:
-        return KKTFastPath.prepare(stacked, higher, spans, retargetable, lo, hi, self.limits.v_index, self.mu,
-                                   self._active)
+    def _fast_path(self, stacked, higher, layout, retargetable, lo, hi) -> KKTFastPath | None:
+        return KKTFastPath.prepare(stacked, higher, layout.spans, retargetable, lo, hi, self.limits.v_index, self.mu,
+                                   self._active, layout.elimination)
 
     @staticmethod
     def _exact_level(AN, r, N, v, lo, hi, bounded) -> np.ndarray | None:
