@@ -26,12 +26,17 @@ class ComTask(Task):
         self.target = np.ascontiguousarray(position, dtype=float)
         self.target_velocity = np.zeros(3) if velocity is None else np.ascontiguousarray(velocity, dtype=float)
 
+    @property
+    def size(self) -> int:
+        return self.axes.size
+
     def error_and_jacobian(self, model, data, q):
-        J, e = self._weighted_rows(model, data, 1.0, 1.0, _NO_FEEDFORWARD)
+        J, e = np.empty((self.size, model.nv)), np.empty(self.size)
+        self._weighted_rows(model, data, 1.0, 1.0, _NO_FEEDFORWARD, J, e)
         return e, J
 
-    def rows(self, model, data, q):
-        return self._weighted_rows(model, data, self.gain, self.weight, self.target_velocity)
+    def write_rows(self, model, data, q, A, b):
+        self._weighted_rows(model, data, self.gain, self.weight, self.target_velocity, A, b)
 
     def error(self, model, data, q):
         # The CoM that the last rows left in data.com[0]: it does not depend on the target.
@@ -40,20 +45,18 @@ class ComTask(Task):
     def feedforward(self):
         return self.target_velocity[self.axes]
 
-    def _weighted_rows(self, model, data, gain: float, weight: float, feedforward: np.ndarray):
+    def _weighted_rows(self, model, data, gain: float, weight: float, feedforward: np.ndarray, A, b) -> None:
         # From the joint Jacobians the solver computed for q; also updates data.com[0].
         J = pin.jacobianCenterOfMass(model, data, False)
-        return com_rows(J, self.locked_dofs, data.com[0], self.target, np.asarray(feedforward, dtype=float),
-                        gain, weight, self.axes)
+        com_rows(J, self.locked_dofs, data.com[0], self.target, np.asarray(feedforward, dtype=float),
+                 gain, weight, self.axes, A, b)
 
 
-@kernel((MATRIX, INDICES, VECTOR, VECTOR, VECTOR, FLOAT, FLOAT, INDICES))
-def com_rows(J, locked, com, target, feedforward, gain, weight, axes):
-    """The task's rows ``(weight J[axes], weight (gain (c* − c)[axes] + v_ff[axes]))`` with the
-    ``locked`` columns of the CoM Jacobian ``J`` zeroed. Compiled, as the frame tasks' rows."""
+@kernel((MATRIX, INDICES, VECTOR, VECTOR, VECTOR, FLOAT, FLOAT, INDICES, MATRIX, VECTOR))
+def com_rows(J, locked, com, target, feedforward, gain, weight, axes, A, b):
+    """The task's rows ``A = weight J[axes]``, ``b = weight (gain (c* − c)[axes] + v_ff[axes])``
+    with the ``locked`` columns of the CoM Jacobian ``J`` zeroed. Compiled, as the frame tasks' rows."""
     nv = J.shape[1]
-    A = np.empty((axes.size, nv))
-    b = np.empty(axes.size)
     for k in range(axes.size):
         i = axes[k]
         for c in range(nv):
@@ -61,4 +64,3 @@ def com_rows(J, locked, com, target, feedforward, gain, weight, axes):
         for c in locked:
             A[k, c] = 0.0
         b[k] = weight * (gain * (target[i] - com[i]) + feedforward[i])
-    return A, b

@@ -42,22 +42,27 @@ class FrameTask(Task):
         self.target = pose
         self.target_velocity = np.zeros(6) if velocity is None else np.ascontiguousarray(velocity, dtype=float)
 
+    @property
+    def size(self) -> int:
+        return self._rows.size
+
     def error_and_jacobian(self, model, data, q):
-        J, e = self._weighted_rows(model, data, 1.0, 1.0, _NO_FEEDFORWARD)
+        J, e = np.empty((self.size, model.nv)), np.empty(self.size)
+        self._weighted_rows(model, data, 1.0, 1.0, _NO_FEEDFORWARD, J, e)
         return e, J
 
-    def rows(self, model, data, q):
-        return self._weighted_rows(model, data, self.gain, self.weight, self.target_velocity)
+    def write_rows(self, model, data, q, A, b):
+        self._weighted_rows(model, data, self.gain, self.weight, self.target_velocity, A, b)
 
     def feedforward(self):
         return self.target_velocity[self._rows]
 
-    def _weighted_rows(self, model, data, gain: float, weight: float, feedforward: np.ndarray):
-        """``(weight J, weight (gain e + v_ff))`` on the task's axes; ``feedforward``: all six."""
+    def _weighted_rows(self, model, data, gain: float, weight: float, feedforward: np.ndarray, A, b) -> None:
+        """``A = weight J``, ``b = weight (gain e + v_ff)`` on the task's axes; ``feedforward``: all six."""
         if self._support is None or self._support[0] is not model:
             self._support = (model, support_columns(model, model.frames[self.frame_id].parentJoint))
-        return frame_rows(data.J, self._support[1], data.oMf[self.frame_id].homogeneous, self._target_homogeneous,
-                          self._rows, np.asarray(feedforward, dtype=float), gain, weight)
+        frame_rows(data.J, self._support[1], data.oMf[self.frame_id].homogeneous, self._target_homogeneous,
+                   self._rows, np.asarray(feedforward, dtype=float), gain, weight, A, b)
 
 
 def support_columns(model: pin.Model, joint: int) -> np.ndarray:
@@ -67,16 +72,15 @@ def support_columns(model: pin.Model, joint: int) -> np.ndarray:
     return np.array([v for joint in joints for v in range(joint.idx_v, joint.idx_v + joint.nv)], dtype=np.int64)
 
 
-@kernel((FORTRAN_MATRIX, INDICES, MATRIX, MATRIX, INDICES, VECTOR, FLOAT, FLOAT))
-def frame_rows(J, support, current, target, rows, feedforward, gain, weight):
-    """The task's rows ``(weight Jf[rows], weight (gain e[rows] + v_ff[rows]))`` for the frame at
+@kernel((FORTRAN_MATRIX, INDICES, MATRIX, MATRIX, INDICES, VECTOR, FLOAT, FLOAT, MATRIX, VECTOR))
+def frame_rows(J, support, current, target, rows, feedforward, gain, weight, A, b):
+    """The task's rows ``A = weight Jf[rows]``, ``b = weight (gain e[rows] + v_ff[rows])`` for the frame at
     the homogeneous pose ``current`` and its ``target`` (world frame): ``e = [p* − p, log3(R* Rᵀ)]``
     and ``Jf`` the frame Jacobian in ``LOCAL_WORLD_ALIGNED``, from the joints' world Jacobians
     ``J`` (Pinocchio's ``data.J`` after ``computeJointJacobians``) on the ``support`` columns:
     ``Jf = [J_v − p × J_ω; J_ω]``, as ``getFrameJacobian`` computes it. Compiled: the dozen small
     numpy calls per task and tick cost several times the arithmetic."""
-    A = np.zeros((rows.size, J.shape[1]))
-    b = np.empty(rows.size)
+    A[:, :] = 0.0
     error = np.zeros(6)
     linear = angular = False
     for r in rows:
@@ -102,7 +106,6 @@ def frame_rows(J, support, current, target, rows, feedforward, gain, weight):
             A[k, c] = weight * column[rows[k]]
     for k in range(rows.size):
         b[k] = weight * (gain * error[rows[k]] + feedforward[rows[k]])
-    return A, b
 
 
 _EPS = np.finfo(float).eps

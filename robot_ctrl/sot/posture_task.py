@@ -30,20 +30,23 @@ class PostureTask(Task):
     def set_target(self, angles: np.ndarray) -> None:
         self.target = np.ascontiguousarray(angles, dtype=float)
 
+    @property
+    def size(self) -> int:
+        return self.q_index.size
+
     def error_and_jacobian(self, model, data, q):
         return self.joint_weights * (self.target - q[self.q_index]), self._weighted_J
 
-    def rows(self, model, data, q):
+    def write_rows(self, model, data, q, A, b):
         # The Jacobian is constant: scaled by the weight once, not on every tick.
         if self._scaled is None or self._scaled[0] != self.weight:
             self._scaled = (self.weight, self._weighted_J if self.weight == 1.0 else self.weight * self._weighted_J)
-        return self._scaled[1], posture_rhs(q, self.q_index, self.target, self.joint_weights, self.gain, self.weight)
+        A[:] = self._scaled[1]
+        posture_rhs(q, self.q_index, self.target, self.joint_weights, self.gain, self.weight, b)
 
 
-@kernel((VECTOR, INDICES, VECTOR, VECTOR, FLOAT, FLOAT))
-def posture_rhs(q, q_index, target, joint_weights, gain, weight):
-    """``weight gain w_j (q*_j − q_j)``, the rows' right-hand side. Compiled, as the frame tasks' rows."""
-    b = np.empty(q_index.size)
+@kernel((VECTOR, INDICES, VECTOR, VECTOR, FLOAT, FLOAT, VECTOR))
+def posture_rhs(q, q_index, target, joint_weights, gain, weight, b):
+    """``b = weight gain w_j (q*_j − q_j)``, the rows' right-hand side. Compiled, as the frame tasks' rows."""
     for j in range(q_index.size):
         b[j] = weight * (gain * (joint_weights[j] * (target[j] - q[q_index[j]])))
-    return b

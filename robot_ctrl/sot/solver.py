@@ -62,30 +62,41 @@ class InfeasibleError(RuntimeError):
 
 @dataclass(frozen=True)
 class _Layout:
-    """Where the active tasks' rows lie, all stacked in priority order: each level's rows, and
-    each task's level and rows in it, and how the fast path eliminates the first level. It
-    changes only when a task is switched on or off."""
+    """Where the active tasks' rows lie, all stacked in priority order in one buffer that each
+    prepare overwrites: each level's rows, each task's level and rows in it, and how the fast path
+    eliminates the first level. It changes only when a task is switched on or off."""
 
     tasks: list[list[Task]]  # the active tasks of each non-empty level
     levels: list[slice]
     spans: dict[Task, tuple[int, slice]]
+    writes: list[tuple[Task, np.ndarray, np.ndarray]]  # each active task and its rows' (A, b) in the buffer
+    stacked: list[tuple[np.ndarray, np.ndarray]]  # each level's (A, b), views of the buffer
+    higher: tuple[np.ndarray, np.ndarray]  # all levels but the last, one view
     elimination: Elimination
 
     @classmethod
-    def of(cls, levels: list[list[Task]], rows: dict[Task, tuple[np.ndarray, np.ndarray]], base_nv: int) -> _Layout:
-        """``levels``: every task by level; ``rows``: the active ones' ``(A, b)``; ``base_nv``: the
-        floating base's velocity dimension (0 for a fixed base)."""
-        sizes = {t: len(b) for t, (_, b) in rows.items()}
-        tasks = [active for active in ([t for t in level if t in sizes] for level in levels) if active]
-        slices, spans, start = [], {}, 0
+    def of(cls, levels: list[list[Task]], active: list[Task], model: pin.Model, data: pin.Data,
+           q: np.ndarray) -> _Layout:
+        """``levels``: every task by level; ``active``: the active ones; the first level's rows at
+        ``q`` (``data`` prepared as for a solve) decide its elimination."""
+        tasks = [on for on in ([t for t in level if t in active] for level in levels) if on]
+        size = sum(t.size for t in active)
+        A_all, b_all = np.zeros((size, model.nv)), np.zeros(size)
+        slices, spans, writes, start = [], {}, [], 0
         for k, level in enumerate(tasks):
             first = start
             for task in level:
-                spans[task] = (k, slice(start - first, start - first + sizes[task]))
-                start += sizes[task]
+                spans[task] = (k, slice(start - first, start - first + task.size))
+                writes.append((task, A_all[start:start + task.size], b_all[start:start + task.size]))
+                start += task.size
             slices.append(slice(first, start))
-        first = np.concatenate([rows[t][0] for t in tasks[0]])
-        return cls(tasks, slices, spans, first_level_elimination(first, base_nv))
+        for task, A, b in writes[:len(tasks[0])]:
+            task.write_rows(model, data, q, A, b)
+        base = model.joints[1] if model.njoints > 1 else None
+        base_nv = base.nv if base is not None and base.shortname() == "JointModelFreeFlyer" else 0
+        m = slices[-1].start
+        return cls(tasks, slices, spans, writes, [(A_all[level], b_all[level]) for level in slices],
+                   (A_all[:m], b_all[:m]), first_level_elimination(A_all[slices[0]], base_nv))
 
 
 @dataclass
@@ -113,7 +124,7 @@ class HierarchicalQP:
         # The bounds that held the last solution (indices into the limits' dofs, upper side): the fast
         # path's first guess of the active set, which moves little from one tick to the next.
         self._active = NO_BOUNDS
-        self._layouts: dict[tuple, _Layout] = {}  # by the active tasks and their numbers of rows
+        self._layouts: dict[tuple, _Layout] = {}  # by nv, the active tasks and their numbers of rows
 
     def solve(self, model: pin.Model, data: pin.Data, q: np.ndarray, dt: float,
               previous: np.ndarray | None = None) -> np.ndarray:
@@ -135,15 +146,13 @@ class HierarchicalQP:
             raise InfeasibleError(0, str(exc)) from exc
         pin.computeJointJacobians(model, data, q)
         pin.updateFramePlacements(model, data)
-        tasks = [t for level in self.levels for t in level if t.active]
-        rows = [t.rows(model, data, q) for t in tasks]
-        layout = self._layout(model, tasks, rows)
-        # One copy of all the rows; each level, and the higher levels together, are views of it.
-        A_all, b_all = np.concatenate([A for A, _ in rows]), np.concatenate([b for _, b in rows])
-        stacked = [(A_all[level], b_all[level]) for level in layout.levels]
-        m = layout.levels[-1].start
-        fast = self._fast_path(stacked, (A_all[:m], b_all[:m]), layout, retargetable, lo, hi)
-        self._prepared = _Prepared(model, data, q, lo, hi, layout, stacked, fast)
+        layout = self._layout(model, data, q, [t for level in self.levels for t in level if t.active])
+        # Every task writes its rows into the layout's buffer; each level, and the higher levels
+        # together, are views of it.
+        for task, A, b in layout.writes:
+            task.write_rows(model, data, q, A, b)
+        fast = self._fast_path(layout.stacked, layout.higher, layout, retargetable, lo, hi)
+        self._prepared = _Prepared(model, data, q, lo, hi, layout, layout.stacked, fast)
 
     def finish(self, retargeted: tuple[Task, ...] = (),
                tighter: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
@@ -207,13 +216,11 @@ class HierarchicalQP:
         self._active = bounds_lain_on(v, lo, hi, bounded)
         return v
 
-    def _layout(self, model: pin.Model, tasks: list[Task], rows: list[tuple[np.ndarray, np.ndarray]]) -> _Layout:
-        key = (*tasks, *[b.size for _, b in rows])
+    def _layout(self, model: pin.Model, data: pin.Data, q: np.ndarray, tasks: list[Task]) -> _Layout:
+        key = (model.nv, *tasks, *[t.size for t in tasks])
         layout = self._layouts.get(key)
         if layout is None:
-            base = model.joints[1] if model.njoints > 1 else None
-            base_nv = base.nv if base is not None and base.shortname() == "JointModelFreeFlyer" else 0
-            layout = self._layouts[key] = _Layout.of(self.levels, dict(zip(tasks, rows)), base_nv)
+            layout = self._layouts[key] = _Layout.of(self.levels, tasks, model, data, q)
         return layout
 
     def _fast_path(self, stacked, higher, layout, retargetable, lo, hi) -> KKTFastPath | None:

@@ -36,10 +36,22 @@ class Task(ABC):
         does not depend on its target may skip recomputing it)."""
         return self.error_and_jacobian(model, data, q)[0]
 
+    @property
+    @abstractmethod
+    def size(self) -> int:
+        """The number of rows m."""
+
     def rows(self, model: pin.Model, data: pin.Data, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Weighted least-squares rows ``(A, b)`` with ``A v ≈ b``."""
+        A, b = np.empty((self.size, model.nv)), np.empty(self.size)
+        self.write_rows(model, data, q, A, b)
+        return A, b
+
+    def write_rows(self, model: pin.Model, data: pin.Data, q: np.ndarray, A: np.ndarray, b: np.ndarray) -> None:
+        """:meth:`rows` written into ``A`` (m, nv) and ``b`` (m,), the solver's stack of all rows."""
         e, J = self.error_and_jacobian(model, data, q)
-        return (J if self.weight == 1.0 else self.weight * J), self._weighted_rhs(e)
+        A[:] = J if self.weight == 1.0 else self.weight * J
+        b[:] = self._weighted_rhs(e)
 
     def rhs(self, model: pin.Model, data: pin.Data, q: np.ndarray) -> np.ndarray:
         """``b`` of :meth:`rows` for the current target, at the configuration of the last ``rows``."""
