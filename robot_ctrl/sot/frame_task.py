@@ -61,8 +61,9 @@ class FrameTask(Task):
         """``A = weight J``, ``b = weight (gain e + v_ff)`` on the task's axes; ``feedforward``: all six."""
         if self._support is None or self._support[0] is not model:
             self._support = (model, support_columns(model, model.frames[self.frame_id].parentJoint))
-        frame_rows(data.J, self._support[1], data.oMf[self.frame_id].homogeneous, self._target_homogeneous,
-                   self._rows, np.asarray(feedforward, dtype=float), gain, weight, A, b)
+        # updateFramePlacement: this frame alone, and its pose returned (cheaper than reading data.oMf).
+        frame_rows(data.J, self._support[1], pin.updateFramePlacement(model, data, self.frame_id).homogeneous,
+                   self._target_homogeneous, self._rows, np.asarray(feedforward, dtype=float), gain, weight, A, b)
 
 
 def support_columns(model: pin.Model, joint: int) -> np.ndarray:

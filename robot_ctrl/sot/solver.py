@@ -144,8 +144,7 @@ class HierarchicalQP:
             lo, hi = self.limits.bounds(q, dt, None if previous is None else previous[self.limits.v_index])
         except LimitViolation as exc:
             raise InfeasibleError(0, str(exc)) from exc
-        pin.computeJointJacobians(model, data, q)
-        pin.updateFramePlacements(model, data)
+        pin.computeJointJacobians(model, data, q)  # frame tasks update their frames' placements
         layout = self._layout(model, data, q, [t for level in self.levels for t in level if t.active])
         # Every task writes its rows into the layout's buffer; each level, and the higher levels
         # together, are views of it.

@@ -3,7 +3,8 @@
 A task asks for ``J v = gain * e + v_ff``: ``e`` its error (desired minus current), ``J`` the
 Jacobian of the task quantity w.r.t. the Pinocchio velocity ``v`` (nv), ``v_ff`` a feedforward
 task velocity. Tasks read kinematics from a ``pinocchio.Data`` on which the solver has already
-run ``computeJointJacobians`` and ``updateFramePlacements`` for the current configuration.
+run ``computeJointJacobians`` for the current configuration (joint placements and Jacobians); a
+frame task updates its own frame's placement.
 """
 
 from __future__ import annotations
