@@ -70,11 +70,12 @@ class NaiveCommander:
         """The learned sequence has been played to its end."""
         return self.finished
 
-    def synthesized_hand_at_measured(self, side: str) -> np.ndarray:
-        """The played arm angles at the measured base pose and legs: the hand's position [m] (world)."""
+    def synthesized_pose_at_measured(self) -> tuple[np.ndarray, np.ndarray]:
+        """The played arm angles and the measured configuration (base pose and legs), for
+        ``body.hands``."""
         s = self.playback.last_state
-        q = configuration(self.controller.robot, s.base_pos, s.base_quat_xyzw, s.q)
-        return self.body.hands(self.output.upper_body_q[self._upper], q)[side]
+        return self.output.upper_body_q[self._upper], configuration(self.controller.robot, s.base_pos,
+                                                                     s.base_quat_xyzw, s.q)
 
     def begin_tick(self, t: float) -> None:
         self.t = t

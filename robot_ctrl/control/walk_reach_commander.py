@@ -137,9 +137,10 @@ class WalkReachCommander:
         est = self.controller.estimate
         return 0.0 if est is None else self.targets.advance(est.base_xy_yaw)
 
-    def synthesized_hand_at_measured(self, side: str) -> np.ndarray:
-        """The synthesized arm angles alone, at the measured pelvis pose and legs: the hand's position."""
-        return self.body.hands(self.output.upper_body_q, self.controller.estimate.configuration)[side]
+    def synthesized_pose_at_measured(self) -> tuple[np.ndarray, np.ndarray]:
+        """The synthesized arm angles alone and the measured configuration (pelvis pose and legs),
+        for ``body.hands``."""
+        return self.output.upper_body_q, self.controller.estimate.configuration
 
     @property
     def opening(self) -> float:

@@ -45,28 +45,39 @@ class DrawerRecorder:
         self._ankles = [robot.config.joint_index("ankle_pitch", s) for s in SIDES]
         self._grippers = [robot.config.joint_index("grippers", s) for s in SIDES]
         self.ankle_limit = robot.effort[self._ankles]
-        self.rows: list[np.ndarray] = []
-        self.body_rows: list[np.ndarray] = []
-        self.synth_hand_error = np.nan
+        # Each tick's measured state, turned into rows when asked for: off the tick's serial path (a
+        # JointState is a snapshot: its arrays are the backend's copies).
+        self.states: list = []
+        # The last standing tick's synthesized arm angles and measured configuration, and the object.
+        self._stand: tuple[tuple[np.ndarray, np.ndarray], np.ndarray] | None = None
 
     def on_command(self, tick) -> None:
         pass
 
     def on_state(self, tick) -> None:
-        s = tick.states[0]
+        self.states.append(tick.states[0])
+        c = self.commander
+        if c.output is not None and c.output.action is Action.STAND:
+            self._stand = c.synthesized_pose_at_measured(), c.targets.object(tick.t, c.opening)
+
+    @property
+    def synth_hand_error(self) -> float:
+        """The synthesized arm angles alone at the last standing tick, by forward kinematics at the
+        measured pelvis pose and legs: the right hand's distance to the object [m] (NaN: never stood)."""
+        if self._stand is None:
+            return np.nan
+        pose, target = self._stand
+        return float(np.linalg.norm(self.commander.body.hands(*pose)["right"] - target))
+
+    def _row(self, s) -> np.ndarray:
         base = base_pose_xy_yaw(s.base_pos, s.base_quat_xyzw)
         tau = s.tau_demand if s.tau_demand is not None else s.tau
         grf = [float((s.foot_wrench or {}).get(side, np.zeros(6))[2]) for side in SIDES]
         scene = (s.scene if s.scene is not None else np.full(len(DRAWER_READINGS), np.nan))[:len(DRAWER_READINGS)]
-        self.rows.append(np.concatenate([[s.t], base, tau[self._ankles], grf, s.q[self._grippers], scene]))
-        self.body_rows.append(np.concatenate([heading_twist(s), s.base_pos, s.base_quat_xyzw, s.q]))
-        c = self.commander
-        if c.output is not None and c.output.action is Action.STAND:
-            target = c.targets.object(tick.t, c.opening)
-            self.synth_hand_error = float(np.linalg.norm(c.synthesized_hand_at_measured("right") - target))
+        return np.concatenate([[s.t], base, tau[self._ankles], grf, s.q[self._grippers], scene])
 
     def arrays(self) -> dict[str, np.ndarray]:
-        a = np.array(self.rows).reshape(-1, 10 + len(DRAWER_READINGS))
+        a = np.array([self._row(s) for s in self.states]).reshape(-1, 10 + len(DRAWER_READINGS))
         out = {"t": a[:, 0], "base": a[:, 1:4], "ankle_pitch_torque": a[:, 4:6], "grf": a[:, 6:8],
                "gripper_q": a[:, 8:10]}
         out.update({name: a[:, 10 + i] for i, name in enumerate(DRAWER_READINGS)})
@@ -75,7 +86,8 @@ class DrawerRecorder:
     def body_arrays(self) -> dict[str, np.ndarray]:
         """Per tick: ``base_twist`` (vx, vy [m/s] in the base's heading frame, ωz [rad/s] about the
         world's z), ``base_pos`` [m] and ``base_quat_xyzw`` (world), ``joint_q`` [rad] (joint order)."""
-        a = np.array(self.body_rows, dtype=np.float32).reshape(-1, 10 + self.robot.nj)
+        a = np.array([np.concatenate([heading_twist(s), s.base_pos, s.base_quat_xyzw, s.q]) for s in self.states],
+                     dtype=np.float32).reshape(-1, 10 + self.robot.nj)
         return {"base_twist": a[:, :3], "base_pos": a[:, 3:6], "base_quat_xyzw": a[:, 6:10], "joint_q": a[:, 10:]}
 
     def report(self, fell: bool, geometry, slot: str, comfort: float) -> dict:
