@@ -29,7 +29,9 @@ from typing import Any, Mapping
 import numpy as np
 
 from robot_ctrl.control.estimator import Estimate
-from robot_ctrl.wpg.lipm import dcm, natural_frequency
+from robot_ctrl.geometry.support_polygon import clamp_to_polygon
+from robot_ctrl.kernels import FLOAT, MATRIX, VECTOR, kernel
+from robot_ctrl.wpg.lipm import natural_frequency
 
 
 @dataclass(frozen=True)
@@ -70,18 +72,48 @@ class DcmStabilizer:
         in the world frame."""
         if not self.enabled:
             return self.offset
-        g = self.gains
-        error = est.dcm(self.omega) - dcm(com_ref, com_vel_ref, self.omega)
-        p_d = zmp_ref + (1.0 + g.dcm_rate / self.omega) * error
-        if g.lateral_dcm_rate is not None and g.lateral_dcm_rate != g.dcm_rate:
-            across = np.array([-math.sin(heading), math.cos(heading)])  # the heading frame's y axis
-            p_d += (g.lateral_dcm_rate - g.dcm_rate) / self.omega * (across @ error) * across
-        if est.support is not None:
-            p_d = est.support.clamp(p_d)
-        self.desired_zmp = p_d
-        rate = g.k_com * (com_ref - est.com[:2]) - g.k_leak * self.offset
-        if est.zmp is not None:
-            rate += g.k_zmp * (est.zmp - p_d)
-        self.offset = np.minimum(np.maximum(self.offset + rate * dt, -g.max_offset), g.max_offset)  # np.clip, faster
+        g, omega = self.gains, self.omega
+        lateral = 0.0 if g.lateral_dcm_rate is None else (g.lateral_dcm_rate - g.dcm_rate) / omega
+        self.offset, self.desired_zmp = dcm_feedback(
+            est.com, est.com_velocity, com_ref, com_vel_ref, zmp_ref, omega, 1.0 + g.dcm_rate / omega, lateral,
+            heading, _NO_POLYGON if est.support is None else est.support.vertices,
+            _NO_ZMP if est.zmp is None else est.zmp, self.offset, g.k_com, g.k_leak, g.k_zmp, g.max_offset, dt)
         return self.offset
+
+
+_NO_POLYGON = np.zeros((0, 2))
+_NO_ZMP = np.zeros(0)
+
+
+@kernel((VECTOR, VECTOR, VECTOR, VECTOR, VECTOR, FLOAT, FLOAT, FLOAT, FLOAT, MATRIX, VECTOR, VECTOR, FLOAT, FLOAT,
+         FLOAT, FLOAT, FLOAT))
+def dcm_feedback(com, com_velocity, com_ref, com_vel_ref, zmp_ref, omega, k_dcm, lateral, heading, support, zmp,
+                 offset, k_com, k_leak, k_zmp, max_offset, dt):
+    """One tick of the module docstring's law, per horizontal axis: the new offset ``Δc`` and the
+    desired ZMP ``p_d`` (world frame). ``com``, ``com_velocity``: measured (their x, y); ``k_dcm =
+    1 + ω_dcm / ω``; ``lateral = (ω_dcm,lat − ω_dcm) / ω``, added along the heading frame's y axis
+    (0: none); ``support``: the support polygon's counter-clockwise vertices (no rows: none);
+    ``zmp``: measured (empty: none). Compiled: a dozen numpy calls on 2-vectors on the tick's
+    serial path cost several times the arithmetic."""
+    error = np.empty(2)
+    p_d = np.empty(2)
+    for i in range(2):
+        error[i] = (com[i] + com_velocity[i] / omega) - (com_ref[i] + com_vel_ref[i] / omega)  # ξ_meas − ξ_ref
+        p_d[i] = zmp_ref[i] + k_dcm * error[i]
+    if lateral != 0.0:
+        ax, ay = -math.sin(heading), math.cos(heading)  # the heading frame's y axis
+        s = lateral * (ax * error[0] + ay * error[1])
+        p_d[0] += s * ax
+        p_d[1] += s * ay
+    if support.shape[0] > 0:
+        p_d = clamp_to_polygon(support, p_d)
+    moved = np.empty(2)
+    for i in range(2):
+        rate = k_com * (com_ref[i] - com[i]) - k_leak * offset[i]
+        if zmp.size > 0:
+            rate += k_zmp * (zmp[i] - p_d[i])
+        x = offset[i] + rate * dt
+        x = x if x >= -max_offset else -max_offset  # NaN stays NaN, as with np.clip
+        moved[i] = x if x <= max_offset else max_offset
+    return moved, p_d
 

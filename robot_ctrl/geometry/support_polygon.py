@@ -88,6 +88,14 @@ def _inside(H, h, p, tol):
     return True
 
 
+@kernel()
+def clamp_to_polygon(vertices, p):
+    """:meth:`SupportPolygon.clamp` for compiled callers: ``p`` (2,) if it lies in the
+    counter-clockwise polygon ``vertices`` (within 1e-9 m), else the closest point of its boundary."""
+    H, h = _halfplanes(vertices)
+    return p.copy() if _inside(H, h, p, 1e-9) else _closest_boundary_point(vertices, p)
+
+
 @kernel((MATRIX, VECTOR))
 def _closest_boundary_point(vertices, p):
     """The point of the polygon's edges closest to ``p``."""
