@@ -52,10 +52,10 @@ class StateEstimator:
         q, v = measured_configuration(r, state.base_pos, state.base_quat_xyzw, state.base_linvel, state.base_angvel,
                                       state.q, state.dq)
         pin.forwardKinematics(r.pin, self.data, q, v)
-        pin.updateFramePlacements(r.pin, self.data)
         com = pin.centerOfMass(r.pin, self.data, pin.KinematicLevel.VELOCITY, False)  # reuses the kinematics above
         com_velocity = self.data.vcom[0].copy()
-        soles = {s: self.data.oMf[self._sole_frames[s]].copy() for s in SIDES}
+        # updateFramePlacement: the four frames read, not all of the model's, each returned.
+        soles = {s: pin.updateFramePlacement(r.pin, self.data, self._sole_frames[s]).copy() for s in SIDES}
         wrench = state.foot_wrench or {}
         down = [s for s in SIDES if s in wrench and wrench[s][2] > self.threshold]
         zmp = support = None
@@ -64,7 +64,8 @@ class StateEstimator:
             zmp = measured_zmp(placements, np.array([wrench[s] for s in down]))
             foot = r.config.foot
             support = SupportPolygon.of_soles(sole_centres(placements, self._sole_offset), foot.length, foot.width)
-        hands = {s: self.data.oMf[f].translation.copy() for s, f in self._hand_frames.items()}
+        hands = {s: pin.updateFramePlacement(r.pin, self.data, f).translation.copy()
+                 for s, f in self._hand_frames.items()}
         return Estimate(com.copy(), com_velocity, soles, {s: s in down for s in SIDES}, zmp, support, hands,
                         base_pose_xy_yaw(state.base_pos, state.base_quat_xyzw), q)
 
