@@ -178,6 +178,7 @@ class WalkingController:
         self._hands: dict[str, tuple[np.ndarray, np.ndarray] | None] = {s: None for s in SIDES}
         self._balance_shift = np.zeros(2)
         self._stance: _StanceSoles | None = None
+        self._stance_unmeasured = False  # the last step's estimate is still to be added to _stance
         self.recover_pushes = options.recover_pushes
         self.push_recoveries = 0  # samples at which the plan took up a DCM departure
 
@@ -284,7 +285,11 @@ class WalkingController:
         generator's sample (MPC and dynamic filter) when one is due, the plan at the tick, every IK
         target but the CoM's correction, the IK's kinematics and factorization, and the torque
         feedforward. A loop may call it while the robot moves (between ``write`` and ``read``);
-        :meth:`step` calls it when the loop did not."""
+        :meth:`step` calls it when the loop did not. It first adds the last step's measured stance
+        sole (:meth:`_measure_stance`, for the next sample's plan), which the command does not need."""
+        if self._stance_unmeasured:
+            self._stance_unmeasured = False
+            self._measure_stance(self.reference)
         t = self.k * self.dt
         if self.sample_due:
             self._plan_sample()
@@ -404,7 +409,7 @@ class WalkingController:
         self.k += 1
         self.reference = ref
         self.estimate = self.estimator.estimate(self.attitude_filter.update(state))
-        self._measure_stance(ref)
+        self._stance_unmeasured = True
         correction = self.stabilizer.correction(self.estimate, prepared.com, prepared.com_velocity,
                                                 ref.zmp + self._balance_shift, self.dt, self.wpg.heading)
         ik = self.ik
