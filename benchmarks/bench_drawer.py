@@ -2,7 +2,7 @@
 `full` in its worker → IK → MuJoCo in its robot process) on one drawer run, and the synthesis's own
 tick inside it (each ``Synthesizer.step`` of that run timed), with the tick against the 5 ms period,
 and the physics of the drawer scene alone (the robot standing before the cabinet, in its own
-process) for the ratio of the two.
+process; before the run and after it, combined as their mean time per tick) for the ratio of the two.
 
 Run: ``python benchmarks/bench_drawer.py [--distance D] [--json]`` (default 2.0 m, slot front_left).
 """
@@ -15,7 +15,7 @@ import json
 import time
 
 import numpy as np
-from bench_loop import physics_only_rtf
+from bench_loop import physics_around
 
 from robot_ctrl.hw.drawer_cabinet import DrawerPlacement
 from robot_ctrl.hw.hardware import open_hardware
@@ -48,19 +48,22 @@ def main() -> None:
 
     Synthesizer.step = timed
     task = DrawerTask(distance, "front_left", dynfilter=FilterMode.FULL)
-    with open_hardware("mujoco", robot, prop=DrawerPlacement(distance, "front_left")) as hw:
-        report = run_drawer(robot, hw, primitives, task, log=lambda line: None)
+    placement = DrawerPlacement(distance, "front_left")
+
+    def drawer():
+        with open_hardware("mujoco", robot, prop=placement) as hw:
+            return run_drawer(robot, hw, primitives, task, log=lambda line: None)
+
+    report, before, after, physics = physics_around(
+        robot, lambda: RobotProcess(functools.partial(MujocoBackend, robot, prop=placement), robot.nj), drawer)
     Synthesizer.step = step
     us = np.array(ticks) * 1e6
     print(f"drawer at {distance} m, filter full: {report['time_s']:.2f} s simulated, real-time factor "
           f"{report['rtf']:.2f} (loop and physics together; success {report['success']})")
     print(f"synthesis tick: median {np.median(us):.0f} us, p99 {np.percentile(us, 99):.0f} us over {len(us)} "
           f"ticks = {np.median(us) / 5000:.1%} of the 5 ms control period")
-    placement = DrawerPlacement(distance, "front_left")
-    scene = RobotProcess(functools.partial(MujocoBackend, robot, prop=placement), robot.nj)
-    physics = physics_only_rtf(robot, scene)
-    print(f"physics only (the drawer scene, its own process): real-time factor {physics:.1f}x; "
-          f"loop / physics: {report['rtf'] / physics:.2f}")
+    print(f"physics only (the drawer scene, its own process): real-time factor {physics:.1f}x ({before:.1f}x "
+          f"before the run, {after:.1f}x after); loop / physics: {report['rtf'] / physics:.2f}")
     if args.json:
         print(json.dumps({"rtf_loop": round(report["rtf"], 3), "rtf_physics_only": round(physics, 3),
                           "ratio_to_physics": round(report["rtf"] / physics, 3)}))

@@ -8,7 +8,9 @@ of the controller's tick: ``step`` (estimator, stabilizer, IK finish), ``write``
 handed to the robot's process), ``prepare`` of the next tick while the robot moves, and ``read``
 (the wait for the robot's period and state). For reference it also prints the physics-only factor
 (the robot standing under constant servo commands), with the backend in this process and in its
-own. Run: ``python benchmarks/bench_loop.py``.
+own. The one in its own process, which the ratio divides by, is measured before the walk and after
+it and combined as their mean time per tick: the machine's speed drifts over a minute.
+Run: ``python benchmarks/bench_loop.py``.
 """
 
 from __future__ import annotations
@@ -47,12 +49,27 @@ class StageTimer:
         return timed
 
 
-def physics_only_rtf(robot, hw, seconds: float = 5.0) -> float:
+def physics_around(robot, make_hw, run):
+    """``run()``, with the physics-only factor of a fresh ``make_hw()`` measured before and after it:
+    ``(run's result, before, after, their combination)``, the last from the mean time per tick."""
+    before = physics_only_rtf(robot, make_hw())
+    result = run()
+    after = physics_only_rtf(robot, make_hw())
+    return result, before, after, 2.0 / (1.0 / before + 1.0 / after)
+
+
+def physics_only_rtf(robot, hw, seconds: float = 5.0, warm_up: int = 100) -> float:
+    """The real-time factor of ``hw`` stepped under a constant command, after ``warm_up`` ticks
+    that are not timed: the first ticks of a process load its compiled kernels (the command's
+    check) and ran at half speed."""
     hw.configure()
     hw.activate()
     state = hw.read()
     zero = np.zeros(robot.nj)
     command = JointCommand(q=state.q, dq=zero, kp=robot.kp, kd=robot.kd, tau_ff=zero)
+    for _ in range(warm_up):
+        hw.write(command)
+        hw.read()
     ticks = round(seconds / 0.005)
     t0 = time.perf_counter()
     for _ in range(ticks):
@@ -86,18 +103,23 @@ def main() -> None:
         self.step = timer.wrap("controller step (after the read)", self.step)
 
     wc.WalkingController.__init__ = instrumented
-    try:
-        report = run_walk(robot, hw, WalkGoal(distance=2.0, speed=0.25), log=lambda _: None)
-    finally:
-        wc.WalkingController.__init__ = original
-        hw.close()
+
+    def walk():
+        try:
+            return run_walk(robot, hw, WalkGoal(distance=2.0, speed=0.25), log=lambda _: None)
+        finally:
+            wc.WalkingController.__init__ = original
+            hw.close()
+
+    report, before, after, remote = physics_around(
+        robot, lambda: RobotProcess(functools.partial(MujocoBackend, robot), robot.nj), walk)
     print(f"full loop, 2 m walk, {report['time_s']:.1f} s simulated: real-time factor {report['rtf']:.2f}x "
           f"(target: >= 0.8 x the physics alone in its own process), fell: {report['fell']}")
     for name, samples in timer.samples.items():
         print(f"  {name:48s} median {np.median(samples) * 1e3:7.3f} ms  ({len(samples)} calls)")
     inline = physics_only_rtf(robot, MujocoBackend(robot))
-    remote = physics_only_rtf(robot, RobotProcess(functools.partial(MujocoBackend, robot), robot.nj))
-    print(f"physics only (standing): real-time factor {inline:.1f}x in this process, {remote:.1f}x in its own")
+    print(f"physics only (standing): real-time factor {inline:.1f}x in this process, {remote:.1f}x in its own "
+          f"({before:.1f}x before the walk, {after:.1f}x after)")
     print(f"loop / physics in its own process: {report['rtf'] / remote:.2f}")
     if args.json:
         print(json.dumps({"rtf_loop": round(report["rtf"], 3), "rtf_physics_only": round(remote, 3),
