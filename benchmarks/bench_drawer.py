@@ -2,7 +2,7 @@
 `full` in its worker → IK → MuJoCo in its robot process) on one drawer run, and the synthesis's own
 tick inside it (each ``Synthesizer.step`` of that run timed), with the tick against the 5 ms period,
 and the physics of the drawer scene alone (the robot standing before the cabinet, in its own
-process; before the run and after it, combined as their mean time per tick) for the ratio of the two.
+process; before the run and after it, the faster of the two) for the ratio of the two.
 
 Run: ``python benchmarks/bench_drawer.py [--distance D] [--json]`` (default 2.0 m, slot front_left).
 """

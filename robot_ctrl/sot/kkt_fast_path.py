@@ -24,8 +24,8 @@ finish whose new targets only move those rows (the stabilizer's CoM), or whose m
 only tightens those bounds, costs a small product instead of a solve (equal to the direct solve
 up to rounding).
 
-The first level (the feet) is eliminated before the solve, which leaves a system of nv − m₁
-fewer unknowns and m₁ fewer multipliers (32 + bounds instead of 56 + bounds for Talos). With ``E₁``
+The first level (the feet) is eliminated before the solve, which leaves a system with m₁ fewer
+unknowns and m₁ fewer multipliers (32 + bounds instead of 56 + bounds for Talos). With ``E₁``
 its m₁ rows, ``P`` the m₁ columns it determines (the legs' joints, ``E₁[:, P]`` invertible), ``C``
 the floating base's columns and ``F`` the others (which ``E₁`` does not touch)::
 
