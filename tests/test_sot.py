@@ -250,7 +250,8 @@ def test_the_feet_eliminated_kkt_solve_equals_the_full_one(talos, tasks):
     np.testing.assert_array_equal(elimination[1], np.arange(6))
     dofs = np.array([legs[3], legs[8], 20, 30])
     beta, unit_rows = rng.uniform(-0.1, 0.1, dofs.size), np.array([0, 7, 12, 14])
-    full = kkt_fast_path.kkt_solution(E, f, A, b, 1e-5, dofs, beta, unit_rows, *kkt_fast_path.NO_ELIMINATION)
+    full = kkt_fast_path.kkt_solution(E, f, A, b, 1e-5, dofs, beta, unit_rows,
+                                      *kkt_fast_path.no_elimination(talos.pin.nv))
     reduced = kkt_fast_path.kkt_solution(E, f, A, b, 1e-5, dofs, beta, unit_rows, *elimination)
     assert np.abs(full[:, 0]).max() > 0.1  # the targets move the robot
     np.testing.assert_allclose(reduced, full, rtol=0, atol=1e-10 * np.abs(full).max())

@@ -60,18 +60,22 @@ _NO_VALUES = np.zeros(0)
 _NO_ROWS = np.zeros(0, dtype=np.int64)
 #: The first level's elimination (module docstring): the velocity indices ``P``, ``C`` and ``F``.
 Elimination = tuple[np.ndarray, np.ndarray, np.ndarray]
-NO_ELIMINATION: Elimination = (_NO_ROWS, _NO_ROWS, _NO_ROWS)
+
+
+def no_elimination(nv: int) -> Elimination:
+    """Nothing eliminated: every column free, the full system."""
+    return _NO_ROWS, _NO_ROWS, np.arange(nv, dtype=np.int64)
 
 
 def first_level_elimination(first: np.ndarray, base_nv: int) -> Elimination:
     """The columns ``P``, ``C``, ``F`` that eliminate the first level's rows ``first`` (m₁, nv):
     ``P`` the columns beyond the floating base's ``base_nv`` that it touches, when there are m₁ of
-    them; ``NO_ELIMINATION`` otherwise."""
+    them; :func:`no_elimination` otherwise."""
     touched = np.abs(first).sum(axis=0) > 0
     touched[:base_nv] = False
     eliminated = np.flatnonzero(touched)
     if eliminated.size != first.shape[0]:
-        return NO_ELIMINATION
+        return no_elimination(first.shape[1])
     others = np.flatnonzero(~touched)
     return eliminated, others[others < base_nv], others[others >= base_nv]
 
@@ -100,7 +104,7 @@ class KKTFastPath:
 
     @classmethod
     def prepare(cls, stacked, higher, spans, retargetable, lo, hi, bounded, mu: float,
-                guess: ActiveSet, elimination: Elimination = NO_ELIMINATION) -> KKTFastPath | None:
+                guess: ActiveSet, elimination: Elimination) -> KKTFastPath | None:
         """The KKT matrix of the levels ``stacked`` (their ``(A, b)``; ``higher``: all but the last
         stacked into one ``(E, f)``; ``spans``: each task's level and rows), with the ``guess`` of
         active bounds as equalities (without them if that makes the matrix singular), factorized
@@ -128,9 +132,12 @@ class KKTFastPath:
             x = kkt_solution(E, f, A, b, mu, bounded[active] if nb else _NO_ROWS, beta,
                              np.array(unit_rows, dtype=np.int64) if unit_rows else _NO_ROWS, *elimination)
         except np.linalg.LinAlgError:  # singular: the eliminated block, the guessed bounds, or the system
+            full = no_elimination(A.shape[1])
             if elimination[0].size:
-                return cls.prepare(stacked, higher, spans, retargetable, lo, hi, bounded, mu, guess)
-            return cls.prepare(stacked, higher, spans, retargetable, lo, hi, bounded, mu, NO_BOUNDS) if nb else None
+                return cls.prepare(stacked, higher, spans, retargetable, lo, hi, bounded, mu, guess, full)
+            if not nb:
+                return None
+            return cls.prepare(stacked, higher, spans, retargetable, lo, hi, bounded, mu, NO_BOUNDS, full)
         return cls(E, f, A, mu, bounded, active, upper, beta, x[:, 0],
                    {task: (at, x[:, cols]) for task, (at, cols) in Z.items()}, x[:, column:], elimination)
 
@@ -227,47 +234,10 @@ def kkt_solution(E, f, A, b, mu, dofs, beta, unit_rows, eliminated, coupled, fre
     indices ``dofs``, for the right-hand sides ``[Aᵀb; f; β]``, then a unit column for each row
     of ``f`` in ``unit_rows``, then one for each bound; of ``x``, the rows of ``v`` and of the
     bounds' multipliers (those of the higher levels' are not needed). The first level is
-    eliminated by the columns ``eliminated``, ``coupled``, ``free`` (``P``, ``C``, ``F``; none:
-    the full system). Raises ``LinAlgError`` when a matrix it factorizes is singular. Compiled:
-    in numpy, the calls would cost more than the arithmetic."""
-    if eliminated.size == 0:
-        return _full_kkt_solution(E, f, A, b, mu, dofs, beta, unit_rows)
-    return _reduced_kkt_solution(E, f, A, b, mu, dofs, beta, unit_rows, eliminated, coupled, free)
-
-
-@kernel()
-def _full_kkt_solution(E, f, A, b, mu, dofs, beta, unit_rows):
-    """:func:`kkt_solution` without elimination: one (nv + m + nb) system."""
-    n, m, nb, r = A.shape[1], E.shape[0], dofs.size, unit_rows.size
-    s = n + m + nb
-    M = np.zeros((s, s))
-    M[:n, :n] = A.T @ A
-    for i in range(n):
-        M[i, i] += mu
-    M[n:n + m, :n] = E
-    M[:n, n:n + m] = E.T
-    for k in range(nb):
-        M[n + m + k, dofs[k]] = 1.0
-        M[dofs[k], n + m + k] = 1.0
-    rhs = np.zeros((s, 1 + r + nb))
-    rhs[:n, 0] = A.T @ b
-    rhs[n:n + m, 0] = f
-    rhs[n + m:, 0] = beta
-    for k in range(r):
-        rhs[n + unit_rows[k], 1 + k] = 1.0
-    for k in range(nb):
-        rhs[n + m + k, 1 + r + k] = 1.0
-    x = np.linalg.solve(M, rhs)
-    kept = np.empty((n + nb, x.shape[1]))
-    kept[:n] = x[:n]
-    kept[n:] = x[n + m:]
-    return kept
-
-
-@kernel()
-def _reduced_kkt_solution(E, f, A, b, mu, dofs, beta, unit_rows, eliminated, coupled, free):
-    """:func:`kkt_solution` with the first level eliminated (module docstring): the unknowns
-    ``y = [v_C; v_F]``, ``v_P = t_P − X v_C``."""
+    eliminated by the columns ``eliminated``, ``coupled``, ``free`` (``P``, ``C``, ``F``): the
+    unknowns ``y = [v_C; v_F]``, ``v_P = t_P − X v_C``; with ``P`` and ``C`` empty
+    (:func:`no_elimination`) it is the full system. Raises ``LinAlgError`` when a matrix it
+    factorizes is singular. Compiled: in numpy, the calls would cost more than the arithmetic."""
     n, m, nb, r = A.shape[1], E.shape[0], dofs.size, unit_rows.size
     m1, nc, nf = eliminated.size, coupled.size, free.size
     k, m2, p, cols = nc + nf, m - m1, A.shape[0], 1 + r + nb
@@ -290,12 +260,12 @@ def _reduced_kkt_solution(E, f, A, b, mu, dofs, beta, unit_rows, eliminated, cou
     for q in range(r):
         if unit_rows[q] < m1:
             rhs1[unit_rows[q], nc + 1 + q] = 1.0
-    solved = np.linalg.solve(B, rhs1)
-    X = np.ascontiguousarray(solved[:, :nc])
-    tP = np.ascontiguousarray(solved[:, nc:])
-    # The last level's and the other higher levels' rows in y (W = [A; E₂] T), and on P.
+    solved = np.linalg.solve(B, rhs1) if m1 else rhs1  # [X | t_P]: X = solved[:, :nc], t_P = solved[:, nc:]
+    # The last level's and the other higher levels' rows: W = [A; E₂] T, and Wt = [A; E₂]_P t_P.
+    # Written as loops: they skip the zeros of the rows on P, and compile in a fraction of the time
+    # that numpy's products and slice assignments of every layout take.
     W = np.empty((p + m2, k))
-    WP = np.empty((p + m2, m1))
+    Wt = np.zeros((p + m2, cols))
     for i in range(p + m2):
         row = A[i] if i < p else E[m1 + i - p]
         for j in range(nc):
@@ -303,26 +273,42 @@ def _reduced_kkt_solution(E, f, A, b, mu, dofs, beta, unit_rows, eliminated, cou
         for j in range(nf):
             W[i, nc + j] = row[free[j]]
         for j in range(m1):
-            WP[i, j] = row[eliminated[j]]
-    W[:, :nc] -= WP @ X
+            w = row[eliminated[j]]
+            if w != 0.0:
+                for c in range(nc):
+                    W[i, c] -= w * solved[j, c]
+                for c in range(cols):
+                    Wt[i, c] += w * solved[j, nc + c]
     AT = W[:p]
     s = k + m2 + nb
     M = np.zeros((s, s))
-    M[:k, :k] = AT.T @ AT  # Tᵀ G T = (A T)ᵀ (A T) + μ (I + Xᵀ X on C)
-    M[:nc, :nc] += mu * (X.T @ X)
-    for i in range(k):
-        M[i, i] += mu
-    M[k:k + m2, :k] = W[p:]
-    M[:k, k:k + m2] = W[p:].T
-    # Tᵀ(a − G t) = (A T)ᵀ (b − A_P t_P) + μ Xᵀ t_P; the rows' right-hand sides less their t part.
-    Wt = WP @ tP
     rhs = np.zeros((s, cols))
-    residual = -Wt[:p]
-    residual[:, 0] += b
-    rhs[:k] = AT.T @ residual
-    rhs[:nc] += mu * (X.T @ tP)
-    rhs[k:k + m2] = -Wt[p:]
-    rhs[k:k + m2, 0] += f[m1:]
+    # Tᵀ G T = (A T)ᵀ (A T) + μ (I + Xᵀ X on C); Tᵀ(a − G t) = (A T)ᵀ (b − A_P t_P) + μ Xᵀ t_P.
+    gram = AT.T @ AT
+    for a in range(k):
+        for c in range(k):
+            M[a, c] = gram[a, c]
+        M[a, a] += mu
+    for j in range(m1):
+        for a in range(nc):
+            x = mu * solved[j, a]
+            for c in range(nc):
+                M[a, c] += x * solved[j, c]
+            for c in range(cols):
+                rhs[a, c] += x * solved[j, nc + c]
+    for i in range(p):
+        for c in range(k):
+            x = AT[i, c]
+            if x != 0.0:
+                rhs[c, 0] += x * (b[i] - Wt[i, 0])
+                for q in range(1, cols):
+                    rhs[c, q] -= x * Wt[i, q]
+    for i in range(m2):
+        for c in range(k):
+            M[k + i, c] = M[c, k + i] = W[p + i, c]
+        rhs[k + i, 0] = f[m1 + i] - Wt[p + i, 0]
+        for q in range(1, cols):
+            rhs[k + i, q] = -Wt[p + i, q]
     for q in range(r):
         if unit_rows[q] >= m1:
             rhs[k + unit_rows[q] - m1, 1 + q] += 1.0
@@ -333,20 +319,24 @@ def _reduced_kkt_solution(E, f, A, b, mu, dofs, beta, unit_rows, eliminated, cou
             M[d, row] = 1.0
         else:  # a leg joint: v_j = t_j − X_j v_C
             for j in range(nc):
-                M[row, j] = -X[-1 - d, j]
-                M[j, row] = -X[-1 - d, j]
-            rhs[row] -= tP[-1 - d]
+                M[row, j] = M[j, row] = -solved[-1 - d, j]
+            for c in range(cols):
+                rhs[row, c] -= solved[-1 - d, nc + c]
         rhs[row, 0] += beta[q]
         rhs[row, 1 + r + q] += 1.0
     y = np.linalg.solve(M, rhs)
     kept = np.empty((n + nb, cols))
     for j in range(n):
         d = at[j]
-        if d >= 0:
-            kept[j] = y[d]
-        else:
-            kept[j] = tP[-1 - d]
-            for i in range(nc):
-                kept[j] -= X[-1 - d, i] * y[i]
-    kept[n:] = y[k + m2:]
+        for c in range(cols):
+            if d >= 0:
+                kept[j, c] = y[d, c]
+            else:
+                x = solved[-1 - d, nc + c]
+                for i in range(nc):
+                    x -= solved[-1 - d, i] * y[i, c]
+                kept[j, c] = x
+    for q in range(nb):
+        for c in range(cols):
+            kept[n + q, c] = y[k + m2 + q, c]
     return kept
