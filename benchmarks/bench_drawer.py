@@ -2,7 +2,9 @@
 `full` in its worker → IK → MuJoCo in its robot process) on one drawer run, and the synthesis's own
 tick inside it (each ``Synthesizer.step`` of that run timed), with the tick against the 5 ms period,
 and the physics of the drawer scene alone (the robot standing before the cabinet, in its own
-process; before the run and after it, the faster of the two) for the ratio of the two.
+process; before the run and after it, the faster of the two) for the ratio of the two, with the
+ticks split as ``bench_loop.py`` splits them (the serial path, the controller's work while the
+robot moves, and the wait for the robot).
 
 Run: ``python benchmarks/bench_drawer.py [--distance D] [--json]`` (default 2.0 m, slot front_left).
 """
@@ -15,7 +17,7 @@ import json
 import time
 
 import numpy as np
-from bench_loop import physics_around
+from bench_loop import TickSplit, physics_around
 
 from robot_ctrl.hw.drawer_cabinet import DrawerPlacement
 from robot_ctrl.hw.hardware import open_hardware
@@ -52,9 +54,10 @@ def main() -> None:
 
     def drawer():
         with open_hardware("mujoco", robot, prop=placement) as hw:
-            return run_drawer(robot, hw, primitives, task, log=lambda line: None)
+            split = TickSplit(hw.backend)
+            return run_drawer(robot, hw, primitives, task, log=lambda line: None), split
 
-    report, before, after, physics = physics_around(
+    (report, split), before, after, physics = physics_around(
         robot, lambda: RobotProcess(functools.partial(MujocoBackend, robot, prop=placement), robot.nj), drawer)
     Synthesizer.step = step
     us = np.array(ticks) * 1e6
@@ -64,9 +67,12 @@ def main() -> None:
           f"ticks = {np.median(us) / 5000:.1%} of the 5 ms control period")
     print(f"physics only (the drawer scene, its own process): real-time factor {physics:.1f}x ({before:.1f}x "
           f"before the run, {after:.1f}x after); loop / physics: {report['rtf'] / physics:.2f}")
+    print(split.summary(report["rtf"], physics))
     if args.json:
         print(json.dumps({"rtf_loop": round(report["rtf"], 3), "rtf_physics_only": round(physics, 3),
-                          "ratio_to_physics": round(report["rtf"] / physics, 3)}))
+                          "ratio_to_physics": round(report["rtf"] / physics, 3),
+                          "serial_path_ms": round(float(np.mean(split.serial)) * 1e3, 4),
+                          "lockstep_bound": round(split.lockstep_bound(physics), 3)}))
 
 
 if __name__ == "__main__":

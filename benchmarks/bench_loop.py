@@ -6,7 +6,9 @@ simulated robot in its own process (``RobotProcess``, as ``robot-ctrl walk`` run
 the real-time factor (simulated seconds per wall second) with the median wall time of each stage
 of the controller's tick: ``step`` (estimator, stabilizer, IK finish), ``write`` (the command
 handed to the robot's process), ``prepare`` of the next tick while the robot moves, and ``read``
-(the wait for the robot's period and state). For reference it also prints the physics-only factor
+(the wait for the robot's period and state). It splits the ticks at the robot process's adapter
+(:class:`TickSplit`): the serial path, from a state's arrival to the next command's hand-over, while
+the robot waits, bounds the ratio to the physics under lockstep. For reference it also prints the physics-only factor
 (the robot standing under constant servo commands), with the backend in this process and in its
 own. The one in its own process, which the ratio divides by, is measured before the walk and after
 it (the machine's speed drifts over a minute), and the faster of the two is taken: a slow moment of
@@ -48,6 +50,55 @@ class StageTimer:
             finally:
                 self.samples[name].append(time.perf_counter() - t0)
         return timed
+
+
+class TickSplit:
+    """Where a loop's ticks go, timed at the robot process's adapter (``RobotProcess``), whose
+    handing over the physics-only figure pays as well: ``serial``, from a state's arrival (its
+    ``read`` returns) to the next command's hand-over (its ``write`` is called): the controller's
+    step and the safety layer's checks, while the robot waits; ``waits``: each ``read``'s wait for
+    the robot's period. The rest of a tick is the controller's work while the robot moves. Reads
+    before the first write (the run's set-up) are left out."""
+
+    def __init__(self, process: RobotProcess):
+        self.serial, self.waits = [], []
+        arrived = written = None
+        read, write = process.read, process.write
+
+        def timed_read():
+            nonlocal arrived
+            t0 = time.perf_counter()
+            state = read()
+            if written:
+                arrived = time.perf_counter()
+                self.waits.append(arrived - t0)
+            return state
+
+        def timed_write(command):
+            nonlocal arrived, written
+            written = True
+            if arrived is not None:
+                self.serial.append(time.perf_counter() - arrived)
+                arrived = None
+            write(command)
+
+        process.read, process.write = timed_read, timed_write
+
+    def lockstep_bound(self, physics_rtf: float, dt: float = 0.005) -> float:
+        """The loop / physics ratio that the mean serial path leaves even when all other work
+        overlaps the robot's period: ``t / (t + s)``, ``t`` the physics-only tick (``dt`` over
+        ``physics_rtf``), ``s`` the serial path."""
+        tick = dt / physics_rtf
+        return tick / (tick + float(np.mean(self.serial)))
+
+    def summary(self, loop_rtf: float, physics_rtf: float, dt: float = 0.005) -> str:
+        """The split of the loop's mean tick (``dt`` over ``loop_rtf``) and the bound of the serial path."""
+        tick, serial, wait = dt / loop_rtf, float(np.mean(self.serial)), float(np.mean(self.waits))
+        return (f"mean tick {tick * 1e3:.3f} ms: serial path (a state's arrival to the next command's hand-over, the "
+                f"robot waiting) {serial * 1e3:.3f} ms, the controller's work while the robot moves "
+                f"{(tick - serial - wait) * 1e3:.3f} ms, waiting for the robot {wait * 1e3:.3f} ms; against the "
+                f"physics-only tick of {dt / physics_rtf * 1e3:.3f} ms, this serial path allows at most "
+                f"{self.lockstep_bound(physics_rtf, dt):.2f} x the physics")
 
 
 def physics_around(robot, make_hw, run):
@@ -106,16 +157,17 @@ def main() -> None:
         process = robot_process()
         process.write = timer.wrap("write (command handed to the robot)", process.write)
         process.read = timer.wrap("read (waits for the robot's period)", process.read)
+        split = TickSplit(process)
         hw = SafetyLayer(process, SafetyLimits.for_simulation(robot), clock=None)  # as open_hardware("mujoco")
         hw.write = timer.wrap("safety layer write (checks, then the write above)", hw.write)
         wc.WalkingController.__init__ = instrumented
         try:
-            return run_walk(robot, hw, WalkGoal(distance=2.0, speed=0.25), log=lambda _: None)
+            return run_walk(robot, hw, WalkGoal(distance=2.0, speed=0.25), log=lambda _: None), split
         finally:
             wc.WalkingController.__init__ = original
             hw.close()
 
-    report, before, after, remote = physics_around(robot, robot_process, walk)
+    (report, split), before, after, remote = physics_around(robot, robot_process, walk)
     print(f"full loop, 2 m walk, {report['time_s']:.1f} s simulated: real-time factor {report['rtf']:.2f}x "
           f"(target: >= 0.8 x the physics alone in its own process), fell: {report['fell']}")
     for name, samples in timer.samples.items():
@@ -124,9 +176,12 @@ def main() -> None:
     print(f"physics only (standing): real-time factor {inline:.1f}x in this process, {remote:.1f}x in its own "
           f"({before:.1f}x before the walk, {after:.1f}x after)")
     print(f"loop / physics in its own process: {report['rtf'] / remote:.2f}")
+    print(split.summary(report["rtf"], remote))
     if args.json:
         print(json.dumps({"rtf_loop": round(report["rtf"], 3), "rtf_physics_only": round(remote, 3),
-                          "ratio_to_physics": round(report["rtf"] / remote, 3)}))
+                          "ratio_to_physics": round(report["rtf"] / remote, 3),
+                          "serial_path_ms": round(float(np.mean(split.serial)) * 1e3, 4),
+                          "lockstep_bound": round(split.lockstep_bound(remote), 3)}))
 
 
 if __name__ == "__main__":
