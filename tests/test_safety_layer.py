@@ -221,6 +221,24 @@ def test_a_measurement_is_judged_field_by_field_when_the_quick_check_fails(talos
     assert JointState(t=0.0, q=zero.astype(np.float32), dq=zero, tau=zero).problem(nj) is None
     assert "q has shape (3,)" in JointState(t=0.0, q=np.zeros(3), dq=zero, tau=zero).problem(nj)
 
+
+def test_a_replaced_state_equals_dataclasses_replace_and_leaves_the_original():
+    """JointState.replaced skips the frozen dataclass's __init__; what it gives must not differ."""
+    zero = np.zeros(3)
+    state = JointState(t=0.5, q=zero, dq=zero, tau=zero, base_quat_xyzw=np.array([0.0, 0.0, 0.0, 1.0]),
+                       foot_wrench={"left": np.zeros(6)}, floor_contacts=("hand",))
+    turned = np.array([0.0, 0.0, 1.0, 0.0])
+    replaced = state.replaced(base_quat_xyzw=turned, t=0.6)
+    expected = dataclasses.replace(state, base_quat_xyzw=turned, t=0.6)
+    assert type(replaced) is JointState
+    assert {f.name: getattr(replaced, f.name) for f in dataclasses.fields(JointState)} == \
+        {f.name: getattr(expected, f.name) for f in dataclasses.fields(JointState)}
+    assert state.base_quat_xyzw[3] == 1.0 and state.t == 0.5
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        replaced.t = 0.7
+    with pytest.raises(TypeError, match="no fields \\['base_quat'\\]"):
+        state.replaced(base_quat=turned)
+
 @pytest.mark.realtime
 def test_estop_does_not_wait_for_a_write_in_flight(talos, limits):
     hw, backend = layer(talos, limits, clock=time.monotonic)

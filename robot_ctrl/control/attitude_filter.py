@@ -25,7 +25,6 @@ the ankles' readings without any noise.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import numpy as np
@@ -134,7 +133,7 @@ class AttitudeFilter:
         self._attitude, self._turned = attitude_step(self._attitude, self._turned, reading,
                                                      np.asarray(state.base_angvel, dtype=float), dt,
                                                      max(1.0 / self._n, min(1.0, dt / self.time_constant)))
-        return dataclasses.replace(state, base_quat_xyzw=self._attitude.copy())
+        return state.replaced(base_quat_xyzw=self._attitude.copy())
 
 
 def _matrix(quat_xyzw: np.ndarray) -> np.ndarray:

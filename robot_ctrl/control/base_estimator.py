@@ -32,7 +32,6 @@ turning frame); a foot slipping while it carries weight is not detected.
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -106,8 +105,8 @@ class BaseEstimator:
             self.position = self.position + self._gain(dt, self.params.position_time_constant) * (odometry - self.position)
             self.velocity = self.velocity + self._gain(dt, self.params.velocity_time_constant) * (kinematic - self.velocity)
         quat = pin.Quaternion(rot)
-        return dataclasses.replace(state, base_pos=self.position.copy(), base_linvel=self.velocity.copy(),
-                                   base_quat_xyzw=np.array([quat.x, quat.y, quat.z, quat.w]))
+        return state.replaced(base_pos=self.position.copy(), base_linvel=self.velocity.copy(),
+                              base_quat_xyzw=np.array([quat.x, quat.y, quat.z, quat.w]))
 
     @property
     def contacts(self) -> tuple[str, ...]:

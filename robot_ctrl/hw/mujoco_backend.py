@@ -11,7 +11,6 @@ The robot starts in its half-sitting posture with the lowest point of its feet o
 
 from __future__ import annotations
 
-import dataclasses
 from collections import deque
 from pathlib import Path
 
@@ -235,8 +234,8 @@ class MujocoBackend(HardwareAdapter):
         wrench = {side: f + np.concatenate([rng.normal(0.0, sigma["foot_force"], 3),
                                             rng.normal(0.0, sigma["foot_torque"], 3)])
                   for side, f in state.foot_wrench.items()}
-        return dataclasses.replace(state, q=state.q + rng.normal(0.0, sigma["joint_position"], self.nj),
-                                   base_quat_xyzw=quat / np.linalg.norm(quat), foot_wrench=wrench)
+        return state.replaced(q=state.q + rng.normal(0.0, sigma["joint_position"], self.nj),
+                              base_quat_xyzw=quat / np.linalg.norm(quat), foot_wrench=wrench)
 
     # Contacts -----------------------------------------------------------------------------------
     def _foot_wrenches(self) -> dict[str, np.ndarray]:

@@ -72,6 +72,17 @@ class JointState:
     temperature: np.ndarray | None = None
     scene: np.ndarray | None = None
 
+    def replaced(self, **fields) -> JointState:
+        """``dataclasses.replace(self, **fields)`` without running ``__init__`` again (a frozen
+        dataclass's sets every field through ``object.__setattr__``): filters replace fields of
+        every tick's state between the read and the command."""
+        unknown = fields.keys() - self.__dict__.keys()
+        if unknown:
+            raise TypeError(f"JointState has no fields {sorted(unknown)}")
+        state = object.__new__(JointState)
+        state.__dict__.update(self.__dict__, **fields)
+        return state
+
     def problem(self, nj: int) -> str | None:
         """Why this sample cannot be trusted (time, joint positions, velocities or temperatures
         that are not ``nj`` finite real numbers; a body sensor's reading, where there is one, not
