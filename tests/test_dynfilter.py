@@ -2,6 +2,7 @@
 plan recorded from a MuJoCo walk."""
 
 import os
+import pickle
 import signal
 import threading
 import time
@@ -16,6 +17,7 @@ from robot_ctrl.dynfilter.filter_worker import DynamicFilterWorker
 from robot_ctrl.dynfilter.multibody_zmp import multibody_zmp
 from robot_ctrl.dynfilter.preview_correction import PreviewCorrection
 from robot_ctrl.hw.mujoco_backend import MujocoBackend
+from robot_ctrl.wpg.plan import SolePlan
 
 
 def random_configuration(robot, rng):
@@ -116,6 +118,30 @@ def test_worker_applies_the_in_process_filter_chain_one_sample_later(talos):
         assert np.abs(expected[0]).max() > 1e-4  # the filter did correct something
     finally:
         worker.close()
+
+
+def test_a_plan_crosses_to_the_worker_unchanged(talos):
+    """PlanPreview pickles as a few arrays (the worker gets one per sample); what comes out is the
+    plan, field by field, mid-swing too; a plan whose samples lack a foot pickles as it is."""
+    controller = standing_controller(talos)
+    wpg = controller.wpg
+    for _ in range(12):
+        wpg.set_velocity(0.3, 0.1, 0.2)
+        wpg.update()
+    plan = wpg.preview()
+    assert any(sample.single_support for sample in plan.samples)
+    plan.samples[3].feet["left"] = SolePlan(np.array([0.1, 0.2, 0.03]), 0.4, np.array([0.5, 0.0, -0.1]), 0.2)
+    copy = pickle.loads(pickle.dumps(plan))
+    assert (copy.t0, copy.sample_duration, len(copy.samples)) == (plan.t0, plan.sample_duration, len(plan.samples))
+    for got, sent in zip(copy.samples, plan.samples):
+        assert (got.t, got.single_support, set(got.feet)) == (sent.t, sent.single_support, set(sent.feet))
+        np.testing.assert_array_equal([got.com, got.zmp], [sent.com, sent.zmp])
+        for side, sole in sent.feet.items():
+            assert (got.feet[side].yaw, got.feet[side].yaw_rate) == (sole.yaw, sole.yaw_rate)
+            np.testing.assert_array_equal([got.feet[side].position, got.feet[side].velocity],
+                                          [sole.position, sole.velocity])
+    del plan.samples[0].feet["right"]
+    assert set(pickle.loads(pickle.dumps(plan)).samples[0].feet) == {"left"}
 
 
 def test_a_stopped_worker_is_reported(talos):

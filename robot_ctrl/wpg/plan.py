@@ -9,6 +9,7 @@ from enum import Enum
 
 import numpy as np
 
+from robot_ctrl.geometry import SIDES
 from robot_ctrl.wpg.footstep import Footstep
 
 
@@ -71,6 +72,33 @@ class PlanPreview:
     t0: float  # [s] start of the solved sample (controller time)
     sample_duration: float  # [s] physical duration of one sample
     samples: tuple[PreviewSample, ...]
+
+    def __reduce__(self):
+        # Pickled as five arrays rather than as dataclasses holding a hundred small arrays, which cost
+        # several times as much to pickle and unpickle: the dynamic filter's worker gets a plan every sample.
+        if not all(tuple(sample.feet) in _SIDE_ORDERS for sample in self.samples):
+            return PlanPreview, (self.t0, self.sample_duration, self.samples)
+        soles = [sample.feet[side] for sample in self.samples for side in SIDES]
+        feet = np.hstack([np.array([sole.position for sole in soles]), np.array([[sole.yaw] for sole in soles]),
+                          np.array([sole.velocity for sole in soles]), np.array([[sole.yaw_rate] for sole in soles])])
+        arrays = (np.array([sample.t for sample in self.samples]), np.array([sample.com for sample in self.samples]),
+                  np.array([sample.zmp for sample in self.samples]), feet.reshape(len(self.samples), len(SIDES), 8),
+                  np.array([sample.single_support for sample in self.samples]))
+        return _preview_from_arrays, (self.t0, self.sample_duration, *arrays)
+
+
+_SIDE_ORDERS = (SIDES, SIDES[::-1])
+
+
+def _preview_from_arrays(t0: float, sample_duration: float, t: np.ndarray, com: np.ndarray, zmp: np.ndarray,
+                         feet: np.ndarray, single_support: np.ndarray) -> PlanPreview:
+    """The :class:`PlanPreview` that ``PlanPreview.__reduce__`` packed: ``feet`` (samples, side,
+    [x, y, z, yaw, vx, vy, vz, yaw rate]) in the order left, right."""
+    return PlanPreview(t0, sample_duration, tuple(
+        PreviewSample(float(t[j]), com[j], zmp[j],
+                      {side: SolePlan(f[:3], float(f[3]), f[4:7], float(f[7])) for side, f in zip(SIDES, feet[j])},
+                      bool(single_support[j]))
+        for j in range(t.size)))
 
 
 @dataclass
