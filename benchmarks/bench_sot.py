@@ -12,7 +12,8 @@ integration of the configuration (and, for placo, its kinematics update, which r
 includes).
 
 Prints the median and p99 tick time and the ratios mink / robot_ctrl and placo / robot_ctrl (mink
-and placo are the optional ``bench`` extra; without them only robot_ctrl is timed). Run:
+and placo are the optional ``bench`` extra; without them only robot_ctrl is timed). The three are
+timed in turns (:func:`interleaved`), so that the machine's swings fall on all of them. Run:
 ``python benchmarks/bench_sot.py``.
 """
 
@@ -23,6 +24,7 @@ import json
 import tempfile
 import time
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 import pinocchio as pin
@@ -43,20 +45,17 @@ def reach_target(ik: WholeBodyIK) -> np.ndarray:
     return mid + np.array([0.4, -0.2, 0.8])
 
 
-def time_robot_ctrl(robot, ticks: int) -> tuple[list[float], float]:
+def robot_ctrl_tick(robot) -> tuple[Callable[[], object], Callable[[], float]]:
+    """robot_ctrl's tick from half-sitting, and its hand's distance to the target [m]."""
     ik = WholeBodyIK(robot, robot.q_half_sitting)
     target = reach_target(ik)
     ik.hands["right"].active = True
     ik.hands["right"].set_target(pin.SE3(np.eye(3), target))
-    samples = []
-    for _ in range(ticks):
-        t0 = time.perf_counter()
-        ik.step(DT)
-        samples.append(time.perf_counter() - t0)
-    return samples, float(np.linalg.norm(ik.pose("right_hand").translation - target))
+    return (lambda: ik.step(DT)), lambda: float(np.linalg.norm(ik.pose("right_hand").translation - target))
 
 
-def time_mink(robot, ticks: int) -> tuple[list[float], float]:
+def mink_tick(robot) -> tuple[Callable[[], object], Callable[[], float]]:
+    """mink's tick on the same tasks, and its hand's distance to the target [m]."""
     import mink
     import mujoco
 
@@ -85,17 +84,18 @@ def time_mink(robot, ticks: int) -> tuple[list[float], float]:
                   for n, v in zip(robot.joint_names, robot.velocity_limit)}
     limits = [mink.ConfigurationLimit(model), mink.VelocityLimit(model, velocities)]
     tasks = [*feet, com, waist, hand, posture]
-    samples = []
-    for _ in range(ticks):
-        t0 = time.perf_counter()
-        v = mink.solve_ik(conf, tasks, DT, solver="quadprog", damping=1e-5, limits=limits)
-        conf.integrate_inplace(v, DT)
-        samples.append(time.perf_counter() - t0)
-    hand_pos = conf.get_transform_frame_to_world(name("right_hand"), "body").translation()
-    return samples, float(np.linalg.norm(hand_pos - target))
+
+    def tick():
+        conf.integrate_inplace(mink.solve_ik(conf, tasks, DT, solver="quadprog", damping=1e-5, limits=limits), DT)
+
+    def error():
+        return float(np.linalg.norm(conf.get_transform_frame_to_world(name("right_hand"), "body").translation() - target))
+
+    return tick, error
 
 
-def time_placo(robot, ticks: int) -> tuple[list[float], float]:
+def placo_tick(robot) -> tuple[Callable[[], object], Callable[[], float]]:
+    """placo's tick on the same tasks, and its hand's distance to the target [m]."""
     import placo
 
     from robot_ctrl.robot.description import resolve_package_uris
@@ -122,13 +122,31 @@ def time_placo(robot, ticks: int) -> tuple[list[float], float]:
     posture = solver.add_joints_task()
     posture.set_joints({n: float(a) for n, a in zip(robot.joint_names, robot.config.half_sitting)})
     posture.configure("posture", "soft", 0.03)
-    samples = []
-    for _ in range(ticks):
-        t0 = time.perf_counter()
+
+    def tick():
         solver.solve(True)
         wrapper.update_kinematics()
-        samples.append(time.perf_counter() - t0)
-    return samples, float(np.linalg.norm(wrapper.get_T_world_frame(frames["right_hand"])[:3, 3] - target))
+
+    return tick, lambda: float(np.linalg.norm(wrapper.get_T_world_frame(frames["right_hand"])[:3, 3] - target))
+
+
+ROUNDS = 20
+
+
+def interleaved(ticks: list[Callable[[], object]], count: int) -> list[list[float]]:
+    """Each tick function's wall times over ``count`` calls, made in ``ROUNDS`` turns of
+    ``count / ROUNDS`` calls per function: a burst of the machine's load then falls on every peer
+    alike instead of on whichever was being timed. Each turn first makes one call that is not
+    timed: it finds the caches cold from the other peers' turn."""
+    samples = [[] for _ in ticks]
+    for _ in range(ROUNDS):
+        for tick, out in zip(ticks, samples):
+            tick()
+            for _ in range(count // ROUNDS):
+                t0 = time.perf_counter()
+                tick()
+                out.append(time.perf_counter() - t0)
+    return samples
 
 
 def main() -> None:
@@ -139,26 +157,32 @@ def main() -> None:
     results = {"ours_us_median": None, "ours_us_p99": None, "mink_us_median": None, "placo_us_median": None,
                "ratio_mink": None, "ratio_placo": None}
     robot = load_robot("talos")
-    time_robot_ctrl(robot, 100)  # warm-up
-    ours, ours_err = time_robot_ctrl(robot, args.ticks)
-    med, p99 = percentiles(ours)
-    results.update(ours_us_median=round(med, 2), ours_us_p99=round(p99, 2))
-    print(f"robot_ctrl HierarchicalQP, 3 levels, Talos (nv = {robot.pin.nv}): "
-          f"median {med:.1f} us, p99 {p99:.1f} us  (hand error after {args.ticks} ticks {ours_err * 1e3:.1f} mm)")
-    for peer, timer, how in (("mink", time_mink, "solve_ik, one weighted level (quadprog)"),
-                             ("placo", time_placo, "KinematicsSolver, feet hard, the rest soft")):
+    peers = [("robot_ctrl", robot_ctrl_tick, f"HierarchicalQP, 3 levels, Talos (nv = {robot.pin.nv})")]
+    for peer, setup, how in (("mink", mink_tick, "solve_ik, one weighted level (quadprog), same tasks"),
+                             ("placo", placo_tick, "KinematicsSolver, feet hard, the rest soft, same tasks")):
         try:
             __import__(peer)
         except ImportError as exc:
             print(f"{peer} does not import ({exc}; make bench, or pip install -e '.[bench]'): no comparison")
             continue
-        timer(robot, 100)
-        theirs, theirs_err = timer(robot, args.ticks)
-        t_med, t_p99 = percentiles(theirs)
-        print(f"{peer} {how}, same tasks: median {t_med:.1f} us, p99 {t_p99:.1f} us  "
-              f"(hand error {theirs_err * 1e3:.1f} mm)")
-        print(f"ratio {peer} / robot_ctrl (median): {t_med / med:.2f}")
-        results.update({f"{peer}_us_median": round(t_med, 2), f"ratio_{peer}": round(t_med / med, 3)})
+        peers.append((peer, setup, how))
+    for _, setup, _ in peers:  # warm-up on a throwaway solver: compiled kernels, caches
+        tick, _ = setup(robot)
+        for _ in range(100):
+            tick()
+    solvers = [setup(robot) for _, setup, _ in peers]
+    samples = interleaved([tick for tick, _ in solvers], args.ticks)
+    med = None
+    for (peer, _, how), (_, error), times in zip(peers, solvers, samples):
+        t_med, t_p99 = percentiles(times)
+        print(f"{peer} {how}: median {t_med:.1f} us, p99 {t_p99:.1f} us  "
+              f"(hand error after {len(times) + ROUNDS} ticks {error() * 1e3:.1f} mm)")
+        if med is None:
+            med = t_med
+            results.update(ours_us_median=round(t_med, 2), ours_us_p99=round(t_p99, 2))
+        else:
+            print(f"ratio {peer} / robot_ctrl (median): {t_med / med:.2f}")
+            results.update({f"{peer}_us_median": round(t_med, 2), f"ratio_{peer}": round(t_med / med, 3)})
     finish(results, args.json)
 
 
