@@ -48,6 +48,7 @@ class DrawerRecorder:
         # Each tick's measured state, turned into rows when asked for: off the tick's serial path (a
         # JointState is a snapshot: its arrays are the backend's copies).
         self.states: list = []
+        self._arrays: tuple[int, dict[str, np.ndarray]] | None = None  # arrays() of the first n states
         # The last standing tick's synthesized arm angles and measured configuration, and the object.
         self._stand: tuple[tuple[np.ndarray, np.ndarray], np.ndarray] | None = None
 
@@ -77,11 +78,16 @@ class DrawerRecorder:
         return np.concatenate([[s.t], base, tau[self._ankles], grf, s.q[self._grippers], scene])
 
     def arrays(self) -> dict[str, np.ndarray]:
-        a = np.array([self._row(s) for s in self.states]).reshape(-1, 10 + len(DRAWER_READINGS))
-        out = {"t": a[:, 0], "base": a[:, 1:4], "ankle_pitch_torque": a[:, 4:6], "grf": a[:, 6:8],
-               "gripper_q": a[:, 8:10]}
-        out.update({name: a[:, 10 + i] for i, name in enumerate(DRAWER_READINGS)})
-        return out
+        """Per tick: time, base pose, ankle pitch torques, vertical GRFs, gripper angles and the
+        drawer's readings; built once for the report and the saved series (read-only)."""
+        if self._arrays is None or self._arrays[0] != len(self.states):
+            a = np.array([self._row(s) for s in self.states]).reshape(-1, 10 + len(DRAWER_READINGS))
+            a.flags.writeable = False
+            out = {"t": a[:, 0], "base": a[:, 1:4], "ankle_pitch_torque": a[:, 4:6], "grf": a[:, 6:8],
+                   "gripper_q": a[:, 8:10]}
+            out.update({name: a[:, 10 + i] for i, name in enumerate(DRAWER_READINGS)})
+            self._arrays = len(self.states), out
+        return dict(self._arrays[1])
 
     def body_arrays(self) -> dict[str, np.ndarray]:
         """Per tick: ``base_twist`` (vx, vy [m/s] in the base's heading frame, ωz [rad/s] about the
