@@ -10,9 +10,9 @@ handed to the robot's process), ``prepare`` of the next tick while the robot mov
 (:class:`TickSplit`): the serial path, from a state's arrival to the next command's hand-over
 while the robot waits, bounds the ratio to the physics under lockstep. For reference it also
 prints the physics-only factor (the robot standing under constant servo commands), with the
-backend in this process and in its own. The one in its own process, which the ratio divides by, is measured before the walk and after
-it (the machine's speed drifts over a minute), and the faster of the two is taken: a slow moment of
-the physics alone never flatters the loop.
+backend in this process and in its own. The one in its own process, which the ratio divides by,
+is measured before the walk and after it (the machine's speed drifts over a minute), and the faster
+of the two is taken: a slow moment of the physics alone never flatters the loop.
 Run: ``python benchmarks/bench_loop.py``.
 """
 
