@@ -257,6 +257,26 @@ def test_the_feet_eliminated_kkt_solve_equals_the_full_one(talos, tasks):
     np.testing.assert_allclose(reduced, full, rtol=0, atol=1e-10 * np.abs(full).max())
 
 
+def test_the_kkt_solves_lu_equals_lapacks_and_refuses_a_singular_matrix():
+    """kkt_fast_path.lu_solve, the KKT systems' elimination, against LAPACK (numpy) on a KKT matrix
+    that needs row exchanges (its zero block), with several right-hand sides; a singular matrix or
+    a NaN pivot raises LinAlgError as numpy's solve does."""
+    rng = np.random.default_rng(3)
+    J = rng.normal(size=(20, 14))
+    constraints = rng.normal(size=(6, 14))
+    M = np.block([[J.T @ J + 1e-5 * np.eye(14), constraints.T], [constraints, np.zeros((6, 6))]])
+    B = rng.normal(size=(20, 4))
+    X = kkt_fast_path.lu_solve(M, B)
+    np.testing.assert_allclose(X, np.linalg.solve(M, B), rtol=0, atol=1e-12 * np.abs(X).max())
+    np.testing.assert_allclose(M @ X, B, rtol=0, atol=1e-10)
+    singular = M.copy()
+    singular[-1] = singular[-2]
+    with pytest.raises(np.linalg.LinAlgError):
+        kkt_fast_path.lu_solve(singular, B)
+    with pytest.raises(np.linalg.LinAlgError):
+        kkt_fast_path.lu_solve(np.full((3, 3), np.nan), B[:3])
+
+
 def test_prepared_solve_with_a_moved_target_equals_a_fresh_solve(talos, tasks):
     """prepare, move the CoM target, finish naming it: the solve that had the final target from the start
     (whether prepare was told the CoM would move or not, and for a task of the last level)."""

@@ -237,7 +237,7 @@ def kkt_solution(E, f, A, b, mu, dofs, beta, unit_rows, eliminated, coupled, fre
     eliminated by the columns ``eliminated``, ``coupled``, ``free`` (``P``, ``C``, ``F``): the
     unknowns ``y = [v_C; v_F]``, ``v_P = t_P − X v_C``; with ``P`` and ``C`` empty
     (:func:`no_elimination`) it is the full system. Raises ``LinAlgError`` when a matrix it
-    factorizes is singular. Compiled: in numpy, the calls would cost more than the arithmetic."""
+    factorizes is singular (:func:`lu_solve`). Compiled: in numpy, the calls would cost more than the arithmetic."""
     n, m, nb, r = A.shape[1], E.shape[0], dofs.size, unit_rows.size
     m1, nc, nf = eliminated.size, coupled.size, free.size
     k, m2, p, cols = nc + nf, m - m1, A.shape[0], 1 + r + nb
@@ -260,7 +260,7 @@ def kkt_solution(E, f, A, b, mu, dofs, beta, unit_rows, eliminated, coupled, fre
     for q in range(r):
         if unit_rows[q] < m1:
             rhs1[unit_rows[q], nc + 1 + q] = 1.0
-    solved = np.linalg.solve(B, rhs1) if m1 else rhs1  # [X | t_P]: X = solved[:, :nc], t_P = solved[:, nc:]
+    solved = lu_solve(B, rhs1) if m1 else rhs1  # [X | t_P]: X = solved[:, :nc], t_P = solved[:, nc:]
     # The last level's and the other higher levels' rows: W = [A; E₂] T, and Wt = [A; E₂]_P t_P.
     # Written as loops: they skip the zeros of the rows on P, and compile in a fraction of the time
     # that numpy's products and slice assignments of every layout take.
@@ -324,7 +324,7 @@ def kkt_solution(E, f, A, b, mu, dofs, beta, unit_rows, eliminated, coupled, fre
                 rhs[row, c] -= solved[-1 - d, nc + c]
         rhs[row, 0] += beta[q]
         rhs[row, 1 + r + q] += 1.0
-    y = np.linalg.solve(M, rhs)
+    y = lu_solve(M, rhs)
     kept = np.empty((n + nb, cols))
     for j in range(n):
         d = at[j]
@@ -340,3 +340,40 @@ def kkt_solution(E, f, A, b, mu, dofs, beta, unit_rows, eliminated, coupled, fre
         for c in range(cols):
             kept[n + q, c] = y[k + m2 + q, c]
     return kept
+
+
+@kernel()
+def lu_solve(A, B):
+    """``X`` with ``A X = B`` (``A`` square, ``B`` its columns of right-hand sides), by Gaussian
+    elimination with partial pivoting (LAPACK's ``dgesv`` without its blocking); raises
+    ``LinAlgError`` when a pivot is zero or not finite. Written out for :func:`kkt_solution`: at
+    its sizes LAPACK's call (copies into Fortran order, checks) costs more than the arithmetic,
+    and the elimination skips the zeros that its KKT matrices are mostly made of."""
+    n, m = A.shape[0], B.shape[1]
+    U, X = A.copy(), B.copy()
+    for k in range(n):
+        pivot, big = k, abs(U[k, k])
+        for i in range(k + 1, n):
+            if abs(U[i, k]) > big:
+                pivot, big = i, abs(U[i, k])
+        if not big > 0.0:
+            raise np.linalg.LinAlgError("singular matrix")
+        if pivot != k:
+            for j in range(n):
+                U[k, j], U[pivot, j] = U[pivot, j], U[k, j]
+            for j in range(m):
+                X[k, j], X[pivot, j] = X[pivot, j], X[k, j]
+        for i in range(k + 1, n):
+            factor = U[i, k] / U[k, k]
+            if factor != 0.0:
+                for j in range(k + 1, n):
+                    U[i, j] -= factor * U[k, j]
+                for j in range(m):
+                    X[i, j] -= factor * X[k, j]
+    for k in range(n - 1, -1, -1):
+        for j in range(m):
+            x = X[k, j]
+            for i in range(k + 1, n):
+                x -= U[k, i] * X[i, j]
+            X[k, j] = x / U[k, k]
+    return X
