@@ -446,8 +446,8 @@ def test_a_configs_ik_range_keeps_an_arm_off_the_torso():
 
 def test_the_compiled_task_rows_equal_pinocchios_jacobians_and_log3(talos):
     """The frame and CoM tasks build their rows from data.J and a log3 of their own: the Jacobians
-    must equal Pinocchio's getFrameJacobian / jacobianCenterOfMass, and the rotation error its log3,
-    at generic angles, near 0 and near π."""
+    must equal Pinocchio's getFrameJacobian / jacobianCenterOfMass (of whichever data they are
+    given), and the rotation error its log3, at generic angles, near 0 and near π."""
     model, data = talos.pin, talos.pin.createData()
     rng = np.random.default_rng(3)
     q = pin.randomConfiguration(model, -np.ones(model.nq), np.ones(model.nq))
@@ -465,6 +465,14 @@ def test_the_compiled_task_rows_equal_pinocchios_jacobians_and_log3(talos):
                             pin.log3(hand.target.rotation @ current.rotation.T)])
         np.testing.assert_array_equal(A, 2.0 * pin.getFrameJacobian(model, data, hand.frame_id, pin.LOCAL_WORLD_ALIGNED))
         np.testing.assert_allclose(b, 2.0 * (3.0 * e + hand.target_velocity), rtol=0, atol=1e-12 / (np.pi - angle))
+    other = model.createData()  # a frame task keeps the Jacobians of the data it last read: another one's are its own
+    q_other = pin.integrate(model, q, rng.uniform(-0.3, 0.3, model.nv))
+    pin.computeJointJacobians(model, other, q_other)
+    hand.target_velocity = [0.1, 0.0, 0.0, 0.0, 0.0, 0.0]  # a list: stored as the float array the rows need
+    A_other, _ = hand.rows(model, other, q_other)
+    np.testing.assert_array_equal(A_other, 2.0 * pin.getFrameJacobian(model, other, hand.frame_id,
+                                                                      pin.LOCAL_WORLD_ALIGNED))
+    assert not np.array_equal(A_other, hand.rows(model, data, q)[0])
     com = ComTask(axes=(0, 2), locked_dofs=[7, 30])
     com.set_target(np.array([0.1, 0.2, 0.3]))
     e, J = com.error_and_jacobian(model, data, q)

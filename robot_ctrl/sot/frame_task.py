@@ -26,7 +26,10 @@ class FrameTask(Task):
         super().__init__(name, **kw)
         self.frame_id = frame_id
         self._rows = np.array([_AXES[a] for a in axes], dtype=np.int64)
-        self._support: tuple[pin.Model, np.ndarray] | None = None  # the model, and the columns the frame moves with
+        # The data last read, its joints' Jacobians (a view that follows computeJointJacobians) and
+        # the columns the frame moves with: read once, not on every tick.
+        self._data: pin.Data | None = None
+        self._jacobians = self._support = None
         self.target = pin.SE3.Identity()
         self.target_velocity = np.zeros(6)  # [linear (m/s), angular (rad/s)] in the world frame
 
@@ -38,9 +41,17 @@ class FrameTask(Task):
     def target(self, pose: pin.SE3) -> None:
         self._target, self._target_homogeneous = pose, pose.homogeneous  # read once: each read is a copy
 
+    @property
+    def target_velocity(self) -> np.ndarray:
+        return self._target_velocity
+
+    @target_velocity.setter
+    def target_velocity(self, velocity) -> None:
+        self._target_velocity = np.ascontiguousarray(velocity, dtype=float)  # as the compiled rows take it
+
     def set_target(self, pose: pin.SE3, velocity: np.ndarray | None = None) -> None:
         self.target = pose
-        self.target_velocity = np.zeros(6) if velocity is None else np.ascontiguousarray(velocity, dtype=float)
+        self.target_velocity = np.zeros(6) if velocity is None else velocity
 
     @property
     def size(self) -> int:
@@ -52,18 +63,19 @@ class FrameTask(Task):
         return e, J
 
     def write_rows(self, model, data, q, A, b):
-        self._weighted_rows(model, data, self.gain, self.weight, self.target_velocity, A, b)
+        self._weighted_rows(model, data, self.gain, self.weight, self._target_velocity, A, b)
 
     def feedforward(self):
         return self.target_velocity[self._rows]
 
     def _weighted_rows(self, model, data, gain: float, weight: float, feedforward: np.ndarray, A, b) -> None:
         """``A = weight J``, ``b = weight (gain e + v_ff)`` on the task's axes; ``feedforward``: all six."""
-        if self._support is None or self._support[0] is not model:
-            self._support = (model, support_columns(model, model.frames[self.frame_id].parentJoint))
+        if data is not self._data:  # a Data belongs to one model
+            self._data, self._jacobians = data, data.J
+            self._support = support_columns(model, model.frames[self.frame_id].parentJoint)
         # updateFramePlacement: this frame alone, and its pose returned (cheaper than reading data.oMf).
-        frame_rows(data.J, self._support[1], pin.updateFramePlacement(model, data, self.frame_id).homogeneous,
-                   self._target_homogeneous, self._rows, np.asarray(feedforward, dtype=float), gain, weight, A, b)
+        frame_rows(self._jacobians, self._support, pin.updateFramePlacement(model, data, self.frame_id).homogeneous,
+                   self._target_homogeneous, self._rows, feedforward, gain, weight, A, b)
 
 
 def support_columns(model: pin.Model, joint: int) -> np.ndarray:
