@@ -17,7 +17,7 @@ class ComTask(Task):
 
     def __init__(self, name: str = "com", axes=(0, 1, 2), locked_dofs=(), **kw):
         super().__init__(name, **kw)
-        self.axes = np.asarray(axes, dtype=np.int64)
+        self._axes = np.asarray(axes, dtype=np.int64)
         self.locked_dofs = np.asarray(locked_dofs, dtype=np.int64)
         self.target = np.zeros(3)
         self.target_velocity = np.zeros(3)
@@ -27,8 +27,13 @@ class ComTask(Task):
         self.target_velocity = np.zeros(3) if velocity is None else np.ascontiguousarray(velocity, dtype=float)
 
     @property
+    def axes(self) -> np.ndarray:
+        """The task's CoM axes (read-only: they fix its number of rows)."""
+        return self._axes
+
+    @property
     def size(self) -> int:
-        return self.axes.size
+        return self._axes.size
 
     def error_and_jacobian(self, model, data, q):
         J, e = np.empty((self.size, model.nv)), np.empty(self.size)

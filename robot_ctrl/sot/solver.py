@@ -117,6 +117,7 @@ class HierarchicalQP:
     def __init__(self, levels: list[list[Task]], limits: JointLimits, regularization: float = 1e-5,
                  rank_tol: float = 1e-8):
         self.levels = levels
+        self._tasks = [task for level in levels for task in level]
         self.limits = limits
         self.mu = regularization
         self.rank_tol = rank_tol
@@ -124,7 +125,7 @@ class HierarchicalQP:
         # The bounds that held the last solution (indices into the limits' dofs, upper side): the fast
         # path's first guess of the active set, which moves little from one tick to the next.
         self._active = NO_BOUNDS
-        self._layouts: dict[tuple, _Layout] = {}  # by nv, the active tasks and their numbers of rows
+        self._layouts: dict[tuple, _Layout] = {}  # by nv and the active tasks (a task's number of rows is fixed)
 
     def solve(self, model: pin.Model, data: pin.Data, q: np.ndarray, dt: float,
               previous: np.ndarray | None = None) -> np.ndarray:
@@ -145,7 +146,7 @@ class HierarchicalQP:
         except LimitViolation as exc:
             raise InfeasibleError(0, str(exc)) from exc
         pin.computeJointJacobians(model, data, q)  # frame tasks update their frames' placements
-        layout = self._layout(model, data, q, [t for level in self.levels for t in level if t.active])
+        layout = self._layout(model, data, q, [t for t in self._tasks if t.active])
         # Every task writes its rows into the layout's buffer; each level, and the higher levels
         # together, are views of it.
         for task, A, b in layout.writes:
@@ -216,7 +217,7 @@ class HierarchicalQP:
         return v
 
     def _layout(self, model: pin.Model, data: pin.Data, q: np.ndarray, tasks: list[Task]) -> _Layout:
-        key = (model.nv, *tasks, *[t.size for t in tasks])
+        key = (model.nv, *tasks)
         layout = self._layouts.get(key)
         if layout is None:
             layout = self._layouts[key] = _Layout.of(self.levels, tasks, model, data, q)

@@ -40,7 +40,7 @@ class Task(ABC):
     @property
     @abstractmethod
     def size(self) -> int:
-        """The number of rows m."""
+        """The number of rows m, fixed when the task is built (the solver lays out its rows by it)."""
 
     def rows(self, model: pin.Model, data: pin.Data, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Weighted least-squares rows ``(A, b)`` with ``A v ≈ b``."""
