@@ -43,6 +43,13 @@ class ComTask(Task):
     def write_rows(self, model, data, q, A, b):
         self._weighted_rows(model, data, self.gain, self.weight, self.target_velocity, A, b)
 
+    def rhs(self, model, data, q):
+        # Task.rhs compiled: the walking controller moves this target between prepare and finish.
+        b = np.empty(self._axes.size)
+        com_rhs(data.com[0], self.target, np.asarray(self.target_velocity, dtype=float), self.gain, self.weight,
+                self._axes, b)
+        return b
+
     def error(self, model, data, q):
         # The CoM that the last rows left in data.com[0]: it does not depend on the target.
         return (self.target - data.com[0])[self.axes]
@@ -68,4 +75,11 @@ def com_rows(J, locked, com, target, feedforward, gain, weight, axes, A, b):
             A[k, c] = weight * J[i, c]
         for c in locked:
             A[k, c] = 0.0
-        b[k] = weight * (gain * (target[i] - com[i]) + feedforward[i])
+    com_rhs(com, target, feedforward, gain, weight, axes, b)
+
+
+@kernel((VECTOR, VECTOR, VECTOR, FLOAT, FLOAT, INDICES, VECTOR))
+def com_rhs(com, target, feedforward, gain, weight, axes, b):
+    """``b = weight (gain (c* − c)[axes] + v_ff[axes])``, the rows' right-hand side."""
+    for k in range(axes.size):
+        b[k] = weight * (gain * (target[axes[k]] - com[axes[k]]) + feedforward[axes[k]])

@@ -41,6 +41,7 @@ import pinocchio as pin
 import quadprog
 from scipy.linalg import lapack
 
+from robot_ctrl.kernels import VECTOR, kernel
 from robot_ctrl.sot.joint_limits import JointLimits, LimitViolation
 from robot_ctrl.sot.kkt_fast_path import NO_BOUNDS, Elimination, KKTFastPath, bounds_lain_on, first_level_elimination
 from robot_ctrl.sot.pivoted_qr import PivotedQR
@@ -183,8 +184,8 @@ class HierarchicalQP:
                     w = None  # not prepared for: solve the KKT system again
             stacked[k] = (stacked[k][0], b)
         lo, hi, bounded = p.lo, p.hi, self.limits.v_index
-        if tighter is not None:  # within [lo, hi] (lo ≤ hi): the clip written out, cheaper than np.clip's wrapper
-            lo, hi = np.minimum(np.maximum(lo, tighter[0]), hi), np.maximum(np.minimum(hi, tighter[1]), lo)
+        if tighter is not None:
+            lo, hi = intersected_bounds(lo, hi, tighter[0], tighter[1])
         if fast is not None:
             solved = fast.solve(w, f, stacked, lo, hi)
             if solved is not None:
@@ -270,3 +271,15 @@ def _meets_bounds(vb, z, N, bounded, lo, hi, slack: float = 0.0) -> bool:
     """Whether the bounded dofs of ``v + N z`` (``vb``: those of ``v``) lie in ``[lo − slack, hi + slack]``."""
     vz = vb + (z[bounded] if N is None else N[bounded] @ z)
     return bool(((vz >= lo - slack) & (vz <= hi + slack)).all())
+
+
+@kernel((VECTOR, VECTOR, VECTOR, VECTOR))
+def intersected_bounds(lo, hi, tighter_lo, tighter_hi):
+    """``[lo, hi] ∩ [tighter_lo, tighter_hi]`` per dof (``lo ≤ hi``), ``[lo, hi]`` winning where the
+    two do not meet: ``(min(max(lo, tl), hi), max(min(hi, th), lo))``, NaN propagated as numpy's
+    ``maximum``/``minimum`` do. Compiled: it runs on the tick's serial path."""
+    new_lo, new_hi = np.empty_like(lo), np.empty_like(hi)
+    for j in range(lo.size):
+        new_lo[j] = np.minimum(np.maximum(lo[j], tighter_lo[j]), hi[j])
+        new_hi[j] = np.maximum(np.minimum(hi[j], tighter_hi[j]), lo[j])
+    return new_lo, new_hi
