@@ -7,7 +7,8 @@ every 0.1 s over a 3 m walk at 0.25 m/s started from standing; we time ``Walking
 placo (optional ``bench`` extra): same timing (0.7 s single support, 0.1 s double support,
 0.1 s planning step, 1.6 s planned ahead, CoM height, sole size, feet spacing), 15 steps of
 0.2 m; we time one ``plan`` of the whole walk and the ``replan`` every 0.1 s during it (the
-call placo's own walking loop makes). placo needs frames named ``left_foot``, ``right_foot``
+call placo's own walking loop makes). The two take turns (:func:`in_turns`: our walk five times,
+placo's replans between them), so that the machine's swings fall on both. placo needs frames named ``left_foot``, ``right_foot``
 and ``trunk``: a temporary copy of the Talos URDF with those fixed frames added is written to a
 temporary folder at run time (nothing is committed).
 
@@ -39,15 +40,27 @@ def stats_ms(samples) -> tuple[float, float]:
     return float(np.median(ms)), float(np.percentile(ms, 99))
 
 
-def run_ours(params: WalkParams, distance: float = 3.0, speed: float = 0.25):
+def our_walk(params: WalkParams, distance: float = 3.0, speed: float = 0.25):
+    """Our generator started from standing, and its next update's wall time [s] (None once it has
+    walked ``distance``)."""
     gen = WalkingPatternGenerator(params, Footstep("left", 0.0, params.step_width / 2, 0.0),
                                   Footstep("right", 0.0, -params.step_width / 2, 0.0), np.zeros(2))
-    updates = []
     gen.set_velocity(speed, 0.0, 0.0)
-    while gen.com_x[0] < distance:
+
+    def update() -> float | None:
+        if gen.com_x[0] >= distance:
+            return None
         t0 = time.perf_counter()
         gen.update()
-        updates.append(time.perf_counter() - t0)
+        return time.perf_counter() - t0
+
+    return gen, update
+
+
+def run_ours(params: WalkParams, distance: float = 3.0):
+    """A whole walk: the MPC's solve times and the updates' wall times [s]."""
+    gen, update = our_walk(params, distance)
+    updates = list(iter(update, None))
     return gen.solve_times, updates
 
 
@@ -64,7 +77,9 @@ def placo_urdf(robot, folder: Path) -> Path:
     return path
 
 
-def run_placo(robot, params: WalkParams, distance: float = 3.0, step: float = 0.2):
+def placo_walk(robot, params: WalkParams, distance: float = 3.0, step: float = 0.2):
+    """placo's generator with the whole walk planned (each of 5 plans timed), and its next replan's
+    wall time [s] (None at the planned end)."""
     import placo
 
     with tempfile.TemporaryDirectory() as folder:
@@ -94,18 +109,42 @@ def run_placo(robot, params: WalkParams, distance: float = 3.0, step: float = 0.
         t0 = time.perf_counter()
         trajectory = wpg.plan(supports, com, 0.0)
         plans.append(time.perf_counter() - t0)
-    replans = []
-    t, last = params.sample_time, 0.0
-    end = trajectory.t_end  # a replan with the repetitive planner extends the walk: stop at the planned end
-    while t < end - params.sample_time:
-        if wpg.can_replan_supports(trajectory, t):
-            t0 = time.perf_counter()
-            supports = wpg.replan_supports(planner, trajectory, t, last)
-            trajectory = wpg.replan(supports, trajectory, t)
-            replans.append(time.perf_counter() - t0)
-            last = t
-        t += params.sample_time
-    return plans, replans
+    # A replan with the repetitive planner extends the walk: stop at the planned end.
+    state = {"t": params.sample_time, "last": 0.0, "trajectory": trajectory, "end": trajectory.t_end}
+
+    def replan() -> float | None:
+        while state["t"] < state["end"] - params.sample_time:
+            t = state["t"]
+            state["t"] += params.sample_time
+            if wpg.can_replan_supports(state["trajectory"], t):
+                t0 = time.perf_counter()
+                supports = wpg.replan_supports(planner, state["trajectory"], t, state["last"])
+                state["trajectory"] = wpg.replan(supports, state["trajectory"], t)
+                state["last"] = t
+                return time.perf_counter() - t0
+        return None
+
+    return plans, replan
+
+
+WALKS = 5
+
+
+def in_turns(robot, params: WalkParams) -> tuple[list[float], list[float], list[float], list[float]]:
+    """``WALKS`` of our 3 m walks, each followed by its share of placo's replans over its one walk:
+    a burst of the machine's load then falls on both, and each runs long enough to keep its own
+    caches (one call of each in turn left our update cold after placo's much larger replan). Our
+    solve and update times, placo's plan and replan times [s]."""
+    solves, updates, replans = [], [], []
+    plans, replan = placo_walk(robot, params)
+    share = None
+    for _ in range(WALKS):
+        gen, update = our_walk(params)
+        updates += list(iter(update, None))
+        solves += gen.solve_times
+        share = share or -(-len(gen.solve_times) // WALKS)  # placo's replans are about as many as our updates
+        replans += [r for r in (replan() for _ in range(share)) if r is not None]
+    return solves, updates, plans, replans + list(iter(replan, None))
 
 
 def main() -> None:
@@ -117,12 +156,20 @@ def main() -> None:
     params = WalkParams(com_height=0.88, step_width=0.17, foot_length=robot.config.foot.length,
                         foot_width=robot.config.foot.width)
     run_ours(params, 0.5)  # warm-up
-    solves, updates = run_ours(params)
+    try:
+        import placo  # noqa: F401
+    except ImportError as exc:
+        placo_missing = f"placo does not import ({exc}; make bench, or pip install -e '.[bench]'): no comparison"
+        (solves, updates), plans, replans = run_ours(params), None, None
+    else:
+        placo_missing = None
+        solves, updates, plans, replans = in_turns(robot, params)
     med, p99 = stats_ms(solves)
     umed, up99 = stats_ms(updates)
     results = {"ours_update_ms_median": round(umed, 4), "ours_solve_ms_median": round(med, 4),
                "placo_replan_ms_median": None, "ratio_placo_update": None}
-    print(f"robot_ctrl walking MPC ({params.solver}), 3 m at 0.25 m/s, {len(solves)} solves: "
+    walks = f"{WALKS} walks" if plans is not None else "a walk"
+    print(f"robot_ctrl walking MPC ({params.solver}), {walks} of 3 m at 0.25 m/s, {len(solves)} solves: "
           f"median {med:.3f} ms, p99 {p99:.3f} ms  (whole update incl. horizon: median {umed:.3f} ms, p99 {up99:.3f} ms)")
     if args.solvers:
         for plugin in ("casadi-daqp", "qpoases", "osqp", "hpipm"):
@@ -132,12 +179,9 @@ def main() -> None:
                 print(f"  plugin {plugin:8s}: median {m:.3f} ms, p99 {q:.3f} ms")
             except (MpcInfeasible, RuntimeError) as exc:
                 print(f"  plugin {plugin:8s}: failed ({str(exc).splitlines()[0][:100]})")
-    try:
-        import placo  # noqa: F401
-    except ImportError as exc:
-        print(f"placo does not import ({exc}; make bench, or pip install -e '.[bench]'): no comparison")
+    if placo_missing:
+        print(placo_missing)
         return finish(results, args.json)
-    plans, replans = run_placo(robot, params)
     pmed, _ = stats_ms(plans)
     rmed, rp99 = stats_ms(replans)
     print(f"placo WalkPatternGenerator, same robot and timing, 15 steps of 0.2 m: plan {pmed:.2f} ms (median of "
