@@ -8,9 +8,9 @@ placo (optional ``bench`` extra): same timing (0.7 s single support, 0.1 s doubl
 0.1 s planning step, 1.6 s planned ahead, CoM height, sole size, feet spacing), 15 steps of
 0.2 m; we time one ``plan`` of the whole walk and the ``replan`` every 0.1 s during it (the
 call placo's own walking loop makes). The two take turns (:func:`in_turns`: our walk five times,
-placo's replans between them), so that the machine's swings fall on both. placo needs frames named ``left_foot``, ``right_foot``
-and ``trunk``: a temporary copy of the Talos URDF with those fixed frames added is written to a
-temporary folder at run time (nothing is committed).
+placo's replans between them), so that the machine's swings fall on both. placo needs frames
+named ``left_foot``, ``right_foot`` and ``trunk``: a temporary copy of the Talos URDF with those
+fixed frames added is written to a temporary folder at run time (nothing is committed).
 
 ``--solvers`` also times the CasADi QP plugins on the same walk (how daqp was chosen, and what
 CasADi's interface to it costs over calling it directly).
