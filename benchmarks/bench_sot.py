@@ -89,7 +89,8 @@ def mink_tick(robot) -> tuple[Callable[[], object], Callable[[], float]]:
         conf.integrate_inplace(mink.solve_ik(conf, tasks, DT, solver="quadprog", damping=1e-5, limits=limits), DT)
 
     def error():
-        return float(np.linalg.norm(conf.get_transform_frame_to_world(name("right_hand"), "body").translation() - target))
+        reached = conf.get_transform_frame_to_world(name("right_hand"), "body").translation()
+        return float(np.linalg.norm(reached - target))
 
     return tick, error
 
