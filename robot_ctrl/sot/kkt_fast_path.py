@@ -237,7 +237,8 @@ def kkt_solution(E, f, A, b, mu, dofs, beta, unit_rows, eliminated, coupled, fre
     eliminated by the columns ``eliminated``, ``coupled``, ``free`` (``P``, ``C``, ``F``): the
     unknowns ``y = [v_C; v_F]``, ``v_P = t_P − X v_C``; with ``P`` and ``C`` empty
     (:func:`no_elimination`) it is the full system. Raises ``LinAlgError`` when a matrix it
-    factorizes is singular (:func:`lu_solve`). Compiled: in numpy, the calls would cost more than the arithmetic."""
+    factorizes is singular (:func:`lu_solve`). Compiled: in numpy, the calls would cost more than
+    the arithmetic."""
     n, m, nb, r = A.shape[1], E.shape[0], dofs.size, unit_rows.size
     m1, nc, nf = eliminated.size, coupled.size, free.size
     k, m2, p, cols = nc + nf, m - m1, A.shape[0], 1 + r + nb

@@ -110,7 +110,6 @@ class _Prepared:
     lo: np.ndarray
     hi: np.ndarray
     layout: _Layout
-    stacked: list[tuple[np.ndarray, np.ndarray]]
     fast: KKTFastPath | None  # when the KKT matrix factorized
 
 
@@ -152,8 +151,7 @@ class HierarchicalQP:
         # together, are views of it.
         for task, A, b in layout.writes:
             task.write_rows(model, data, q, A, b)
-        fast = self._fast_path(layout.stacked, layout.higher, layout, retargetable, lo, hi)
-        self._prepared = _Prepared(model, data, q, lo, hi, layout, layout.stacked, fast)
+        self._prepared = _Prepared(model, data, q, lo, hi, layout, self._fast_path(layout, retargetable, lo, hi))
 
     def finish(self, retargeted: tuple[Task, ...] = (),
                tighter: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
@@ -164,7 +162,7 @@ class HierarchicalQP:
         p, self._prepared = self._prepared, None
         if p is None:
             raise RuntimeError("HierarchicalQP.finish without prepare")
-        stacked = list(p.stacked)
+        stacked = list(p.layout.stacked)
         fast = p.fast
         w = None if fast is None else fast.w0
         f = None if fast is None else fast.f
@@ -224,9 +222,9 @@ class HierarchicalQP:
             layout = self._layouts[key] = _Layout.of(self.levels, tasks, model, data, q)
         return layout
 
-    def _fast_path(self, stacked, higher, layout, retargetable, lo, hi) -> KKTFastPath | None:
-        return KKTFastPath.prepare(stacked, higher, layout.spans, retargetable, lo, hi, self.limits.v_index, self.mu,
-                                   self._active, layout.elimination)
+    def _fast_path(self, layout: _Layout, retargetable, lo, hi) -> KKTFastPath | None:
+        return KKTFastPath.prepare(layout.stacked, layout.higher, layout.spans, retargetable, lo, hi,
+                                   self.limits.v_index, self.mu, self._active, layout.elimination)
 
     @staticmethod
     def _exact_level(AN, r, N, v, lo, hi, bounded) -> np.ndarray | None:
