@@ -47,6 +47,10 @@ def test_one_metre_walk_does_not_fall(robot, tmp_path):
     for key in ("final_position_error_m", "zmp_in_support_ratio", "peak_torque_ratio", "com_error_rms_m"):
         assert float(table[key]) == pytest.approx(report[key], rel=1e-3), key
     assert json.loads(table["peak_grf_n"].replace("&quot;", '"')) == report["peak_grf_n"]
+    # The safety layer's report is a table of its own, each joint's demanded torque largest first.
+    ratios = report["safety"]["demanded_peak_torque_ratio"]
+    assert table["mode"] == report["safety"]["mode"]
+    assert table["demanded_peak_torque_ratio"].startswith(f"{max(ratios, key=ratios.get)} {max(ratios.values()):.4g}, ")
     titles = re.findall(r'<img alt="([^"]+)" src="data:image/png;base64,', page)
     assert titles == ["ZMP: reference vs measured", "Top view: CoM and footprints (start frame)",
                       "Peak joint torques against their limits", "Vertical ground reaction forces"]

@@ -59,8 +59,7 @@ def render_report(run_dir: Path) -> Path:
         figures.extend(drawer_figures(series, report))
     if series is not None:
         figures.extend(log_figures(series))
-    rows = "".join(f"<tr><th>{html.escape(k)}</th><td>{html.escape(_fmt(report[k]))}</td></tr>"
-                   for k in SUMMARY_KEYS if k in report)
+    rows = "".join(f"<tr><th>{html.escape(k)}</th><td>{_cell(report[k])}</td></tr>" for k in SUMMARY_KEYS if k in report)
     body = "".join(f'<h2>{html.escape(title)}</h2><img alt="{html.escape(title)}" src="data:image/png;base64,{png}">'
                    for title, png in figures)
     title = f"robot_ctrl run: {report.get('robot', '')} {run_dir.name}"
@@ -73,6 +72,18 @@ th,td{{border:1px solid #ccc;padding:3px 8px;text-align:left;font-size:90%;}} im
     out = run_dir / "report.html"
     out.write_text(page)
     return out
+
+
+def _cell(value) -> str:
+    """A summary value as HTML: a dict holding dicts or more than 8 entries (the safety layer's
+    report) as a table of its own, a per-joint figure listed largest first; anything else as text."""
+    if not isinstance(value, dict) or not value or (len(value) <= 8 and not any(isinstance(v, dict) for v in value.values())):
+        return html.escape(_fmt(value))
+    if all(isinstance(v, (int, float)) for v in value.values()):
+        ranked = sorted(value.items(), key=lambda item: -item[1])
+        return html.escape(", ".join(f"{k} {_fmt(v)}" for k, v in ranked) + " (largest first)")
+    rows = "".join(f"<tr><th>{html.escape(str(k))}</th><td>{_cell(v)}</td></tr>" for k, v in value.items())
+    return f"<table>{rows}</table>"
 
 
 def _fmt(value) -> str:
@@ -90,7 +101,7 @@ def figure_png(fig) -> str:
 
     buffer = io.BytesIO()
     fig.tight_layout()
-    fig.savefig(buffer, format="png", dpi=100)
+    fig.savefig(buffer, format="png", dpi=100, bbox_inches="tight")  # no blank band around an equal-aspect plot
     plt.close(fig)
     return base64.b64encode(buffer.getvalue()).decode()
 
