@@ -59,7 +59,8 @@ def render_report(run_dir: Path) -> Path:
         figures.extend(drawer_figures(series, report))
     if series is not None:
         figures.extend(log_figures(series))
-    rows = "".join(f"<tr><th>{html.escape(k)}</th><td>{_cell(report[k])}</td></tr>" for k in SUMMARY_KEYS if k in report)
+    rows = "".join(f"<tr><th>{html.escape(k)}</th><td>{_cell(report[k])}</td></tr>"
+                   for k in SUMMARY_KEYS if k in report)
     body = "".join(f'<h2>{html.escape(title)}</h2><img alt="{html.escape(title)}" src="data:image/png;base64,{png}">'
                    for title, png in figures)
     title = f"robot_ctrl run: {report.get('robot', '')} {run_dir.name}"
@@ -77,7 +78,9 @@ th,td{{border:1px solid #ccc;padding:3px 8px;text-align:left;font-size:90%;}} im
 def _cell(value) -> str:
     """A summary value as HTML: a dict holding dicts or more than 8 entries (the safety layer's
     report) as a table of its own, a per-joint figure listed largest first; anything else as text."""
-    if not isinstance(value, dict) or not value or (len(value) <= 8 and not any(isinstance(v, dict) for v in value.values())):
+    if not isinstance(value, dict) or not value:
+        return html.escape(_fmt(value))
+    if len(value) <= 8 and not any(isinstance(v, dict) for v in value.values()):
         return html.escape(_fmt(value))
     if all(isinstance(v, (int, float)) for v in value.values()):
         ranked = sorted(value.items(), key=lambda item: -item[1])
