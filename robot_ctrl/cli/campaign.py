@@ -55,8 +55,8 @@ def _campaign(args: argparse.Namespace) -> int:
     if result is None:
         raise KeyboardInterrupt("the campaign stopped; run the same command again to finish it")
     for s in result["summary"]:
-        log_line(f"{s['method']} {s['sources']} {s['speed']:>7}: {s['trials']} trials, {s['falls']} falls, "
-                 f"{s['successes']} successes, {s['errors']} errors; step error median "
+        log_line(f"{s['method']} {s['sources']} {s['speed']:>7}: trials {s['trials']}, falls {s['falls']}, "
+                 f"successes {s['successes']}, errors {s['errors']}; step error median "
                  f"{_mm(s['step_length_error_median_m'])}, max {_mm(s['step_length_error_max_m'])}; hand error max "
                  f"{_mm(s['hand_error_max_m'])}")
     bad = sum(s["falls"] + s["errors"] for s in result["summary"])
