@@ -4,7 +4,8 @@ tick inside it (each ``Synthesizer.step`` of that run timed), with the tick agai
 and the physics of the drawer scene alone (the robot standing before the cabinet, in its own
 process; before the run and after it, the faster of the two) for the ratio of the two, with the
 ticks split as ``bench_loop.py`` splits them (the serial path, the controller's work while the
-robot moves, and the wait for the robot).
+robot moves, and the wait for the robot). Last, the same run with a period of command latency
+(``--latency-ms 5``), in which the robot simulates each next period while the controller computes.
 
 Run: ``python benchmarks/bench_drawer.py [--distance D] [--json]`` (default 2.0 m, slot front_left).
 """
@@ -19,6 +20,7 @@ import time
 import numpy as np
 from bench_loop import TickSplit, physics_around
 
+from robot_ctrl.hw.disturbances import Disturbances
 from robot_ctrl.hw.drawer_cabinet import DrawerPlacement
 from robot_ctrl.hw.hardware import open_hardware
 from robot_ctrl.hw.mujoco_backend import MujocoBackend
@@ -52,13 +54,20 @@ def main() -> None:
     task = DrawerTask(distance, "front_left", dynfilter=FilterMode.FULL)
     placement = DrawerPlacement(distance, "front_left")
 
-    def drawer():
-        with open_hardware("mujoco", robot, prop=placement) as hw:
+    def drawer(disturbances: Disturbances = Disturbances()):
+        with open_hardware("mujoco", robot, prop=placement, disturbances=disturbances) as hw:
             split = TickSplit(hw.backend)
             return run_drawer(robot, hw, primitives, task, log=lambda line: None), split
 
-    (report, split), before, after, physics = physics_around(
-        robot, lambda: RobotProcess(functools.partial(MujocoBackend, robot, prop=placement), robot.nj), drawer)
+    def drawers():
+        lockstep = drawer()
+        synthesis = len(ticks)
+        delayed, _ = drawer(Disturbances(latency=0.005))
+        del ticks[synthesis:]
+        return lockstep, delayed
+
+    ((report, split), delayed), before, after, physics = physics_around(
+        robot, lambda: RobotProcess(functools.partial(MujocoBackend, robot, prop=placement), robot.nj), drawers)
     Synthesizer.step = step
     us = np.array(ticks) * 1e6
     print(f"drawer at {distance} m, filter full: {report['time_s']:.2f} s simulated, real-time factor "
@@ -68,11 +77,16 @@ def main() -> None:
     print(f"physics only (the drawer scene, its own process): real-time factor {physics:.1f}x ({before:.1f}x "
           f"before the run, {after:.1f}x after); loop / physics: {report['rtf'] / physics:.2f}")
     print(split.summary(report["rtf"], physics))
+    print(f"the same run with a period of command latency (--latency-ms 5), the robot simulating each next period "
+          f"while the controller computes its command: real-time factor {delayed['rtf']:.2f}, "
+          f"{delayed['rtf'] / physics:.2f} x the physics (success {delayed['success']})")
     if args.json:
         print(json.dumps({"rtf_loop": round(report["rtf"], 3), "rtf_physics_only": round(physics, 3),
                           "ratio_to_physics": round(report["rtf"] / physics, 3),
                           "serial_path_ms": round(float(np.mean(split.serial)) * 1e3, 4),
-                          "lockstep_bound": round(split.lockstep_bound(physics), 3)}))
+                          "lockstep_bound": round(split.lockstep_bound(physics), 3),
+                          "rtf_loop_latency_5ms": round(delayed["rtf"], 3),
+                          "ratio_to_physics_latency_5ms": round(delayed["rtf"] / physics, 3)}))
 
 
 if __name__ == "__main__":

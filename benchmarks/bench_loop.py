@@ -12,7 +12,9 @@ while the robot waits, bounds the ratio to the physics under lockstep. For refer
 prints the physics-only factor (the robot standing under constant servo commands), with the
 backend in this process and in its own. The one in its own process, which the ratio divides by,
 is measured before the walk and after it (the machine's speed drifts over a minute), and the faster
-of the two is taken: a slow moment of the physics alone never flatters the loop.
+of the two is taken: a slow moment of the physics alone never flatters the loop. Last, the same
+walk with a period of command latency (``--latency-ms 5``): the robot's process then simulates each
+next period while the controller computes (``MujocoBackend.run_ahead``), so no serial path remains.
 Run: ``python benchmarks/bench_loop.py``.
 """
 
@@ -28,6 +30,7 @@ import numpy as np
 
 from robot_ctrl.control import walking_controller as wc
 from robot_ctrl.control.path_follower import WalkGoal
+from robot_ctrl.hw.disturbances import Disturbances
 from robot_ctrl.hw.mujoco_backend import MujocoBackend
 from robot_ctrl.hw.robot_process import RobotProcess
 from robot_ctrl.hw.safety import SafetyLayer, SafetyLimits
@@ -149,12 +152,12 @@ def main() -> None:
         self.prepare = timer.wrap("controller prepare (while the robot moves)", self.prepare)
         self.step = timer.wrap("controller step (after the read)", self.step)
 
-    def robot_process() -> RobotProcess:
-        return RobotProcess(functools.partial(MujocoBackend, robot), robot.nj)
+    def robot_process(disturbances: Disturbances = Disturbances()) -> RobotProcess:
+        return RobotProcess(functools.partial(MujocoBackend, robot, disturbances=disturbances), robot.nj)
 
-    def walk():
+    def walk(disturbances: Disturbances = Disturbances()):
         # The walk's robot process starts here, not while the physics alone is measured before it.
-        process = robot_process()
+        process = robot_process(disturbances)
         process.write = timer.wrap("write (command handed to the robot)", process.write)
         process.read = timer.wrap("read (waits for the robot's period)", process.read)
         split = TickSplit(process)
@@ -167,7 +170,14 @@ def main() -> None:
             wc.WalkingController.__init__ = original
             hw.close()
 
-    (report, split), before, after, remote = physics_around(robot, robot_process, walk)
+    def walks():
+        lockstep = walk()
+        stages = {name: list(samples) for name, samples in timer.samples.items()}
+        delayed, _ = walk(Disturbances(latency=0.005))  # timed as the first, its stages not printed
+        timer.samples = defaultdict(list, stages)
+        return lockstep, delayed
+
+    ((report, split), delayed), before, after, remote = physics_around(robot, robot_process, walks)
     print(f"full loop, 2 m walk, {report['time_s']:.1f} s simulated: real-time factor {report['rtf']:.2f}x "
           f"(target: >= 0.8 x the physics alone in its own process), fell: {report['fell']}")
     for name, samples in timer.samples.items():
@@ -177,11 +187,16 @@ def main() -> None:
           f"({before:.1f}x before the walk, {after:.1f}x after)")
     print(f"loop / physics in its own process: {report['rtf'] / remote:.2f}")
     print(split.summary(report["rtf"], remote))
+    print(f"the same walk with a period of command latency (--latency-ms 5), the robot simulating each next period "
+          f"while the controller computes its command: real-time factor {delayed['rtf']:.2f}x, "
+          f"{delayed['rtf'] / remote:.2f} x the physics, fell: {delayed['fell']}")
     if args.json:
         print(json.dumps({"rtf_loop": round(report["rtf"], 3), "rtf_physics_only": round(remote, 3),
                           "ratio_to_physics": round(report["rtf"] / remote, 3),
                           "serial_path_ms": round(float(np.mean(split.serial)) * 1e3, 4),
-                          "lockstep_bound": round(split.lockstep_bound(remote), 3)}))
+                          "lockstep_bound": round(split.lockstep_bound(remote), 3),
+                          "rtf_loop_latency_5ms": round(delayed["rtf"], 3),
+                          "ratio_to_physics_latency_5ms": round(delayed["rtf"] / remote, 3)}))
 
 
 if __name__ == "__main__":

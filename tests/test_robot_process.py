@@ -9,6 +9,7 @@ import pytest
 
 from robot_ctrl.hw import CommandError, JointCommand, JointState, LifecycleError, LifecycleState
 from robot_ctrl.hw.adapter import HardwareAdapter
+from robot_ctrl.hw.disturbances import Disturbances
 from robot_ctrl.hw.mujoco_backend import MujocoBackend
 from robot_ctrl.hw.robot_process import RobotProcess
 from robot_ctrl.hw.shared_state import SharedState
@@ -58,6 +59,35 @@ def test_a_backend_in_its_process_reads_what_it_reads_in_ours(talos):
         remote.close()
     with pytest.raises(LifecycleError, match="after close"):
         remote.read()
+
+
+def test_with_command_latency_the_robot_runs_the_next_period_while_the_controller_computes(talos):
+    """With a period of latency (or two) the child simulates each next period as soon as a write has
+    returned; the states read are lock-step's, bit for bit, with noisy sensors drawing in the same
+    order. A lifecycle call after the last write finds the robot a period further on."""
+    for latency in (0.005, 0.010):
+        make = functools.partial(MujocoBackend, talos, disturbances=Disturbances(latency=latency, sensor_noise=True))
+        direct, remote = make(), RobotProcess(make, talos.nj)
+        try:
+            for hw in (direct, remote):
+                hw.configure()
+                hw.activate()
+            assert_same_state(direct.read(), remote.read())  # each draws its sensor noise once per read
+            q = direct.read().q.copy()
+            remote.read()
+            knee = talos.joint_names.index("leg_left_4_joint")
+            for tick in range(20):
+                q[knee] += 0.01
+                for hw in (direct, remote):
+                    hw.write(hold(talos, q))
+                assert_same_state(direct.read(), remote.read())
+            final = direct.read()
+            assert final.q[knee] - talos.config.half_sitting[knee] > 0.05  # the delayed commands moved it
+            remote.deactivate()
+            assert remote.read().t == pytest.approx(final.t + direct.control_dt)
+        finally:
+            direct.close()
+            remote.close()
 
 
 def test_lifecycle_and_bad_commands_as_for_the_backend_itself(talos):
@@ -110,22 +140,41 @@ class _FailingBackend(HardwareAdapter):
         return JointState(t=0.001 * self.writes, q=z, dq=z, tau=z)
 
 
-def test_a_failure_in_the_child_is_raised_by_the_next_call_and_faults_the_adapter():
-    hw = RobotProcess(functools.partial(_FailingBackend, 3), 3)
+class _FailingAheadBackend(_FailingBackend):
+    """A backend that runs each next period ahead of its write, and whose second such period fails."""
+
+    def _write(self, command: JointCommand) -> None:
+        pass  # the period ran ahead
+
+    def _run_ahead(self) -> bool:
+        self.writes += 1
+        if self.writes == 2:
+            raise OSError("the period run ahead failed")
+        return True
+
+
+@pytest.mark.parametrize("backend, message, times, restarted", [
+    (_FailingBackend, "bus dropped out", [0.001], 0.003),
+    # The period that follows a write's return belongs to the next write: its failure comes with
+    # that write's reply, as it would in lock-step; the failed period counts for nothing.
+    (_FailingAheadBackend, "the period run ahead failed", [0.0, 0.001], 0.002)])
+def test_a_failure_in_the_child_is_raised_by_the_next_call_and_faults_the_adapter(backend, message, times, restarted):
+    hw = RobotProcess(functools.partial(backend, 3), 3)
     try:
         hw.configure()
         hw.activate()
         command = JointCommand(*np.zeros((5, 3)))
-        hw.write(command)
-        assert hw.read().t == 0.001
+        for t in times:
+            hw.write(command)
+            assert hw.read().t == t
         hw.write(command)  # returns: the failure comes with the reply
-        with pytest.raises(OSError, match="bus dropped out"):
+        with pytest.raises(OSError, match=message):
             hw.read()
         assert hw.state is LifecycleState.FAULT
         hw.reset()
         hw.activate()
         hw.write(command)
-        assert hw.read().t == 0.003
+        assert hw.read().t == restarted
     finally:
         hw.close()
 

@@ -127,6 +127,16 @@ class HardwareAdapter(ABC):
         command.validate(self.nj)
         self._guarded(lambda: self._write(command))
 
+    def run_ahead(self) -> bool:
+        """Simulate the next control period before its command is written, where the backend already
+        holds the command that period applies (a simulated command latency of a period or more): the
+        robot moves on while the controller computes, and the next ``write`` only queues its command.
+        ``RobotProcess`` calls it after each write. False where nothing ran (the default: a real
+        robot moves on by itself, and a simulation without latency needs the next command)."""
+        if self._closed or self._state is not S.ACTIVE:
+            return False
+        return self._guarded(self._run_ahead)
+
     def _guarded(self, call):
         try:
             return call()
@@ -162,6 +172,9 @@ class HardwareAdapter(ABC):
 
     @abstractmethod
     def _write(self, command: JointCommand) -> None: ...
+
+    def _run_ahead(self) -> bool:
+        return False
 
     def __enter__(self):
         return self

@@ -6,6 +6,11 @@ Alone in its world, each ``write()`` applies the servo command and simulates one
 robot. In a world shared with other robots
 (:class:`~robot_ctrl.hw.mujoco_world.MujocoWorld`), ``write()`` only applies the command and the
 world steps once all robots have written. ``read()`` returns the state at the current time.
+With a command latency of a period or more (``Disturbances.latency``), the next period's command is
+already written when a write returns: ``run_ahead()`` simulates that period then (a
+``RobotProcess`` calls it while the controller computes) and the next write only queues its
+command. The states read are lock-step's, bit for bit; a lifecycle call after a period run ahead
+finds the robot that period further on, as a real robot would be.
 The robot starts in its half-sitting posture with the lowest point of its feet on the floor.
 """
 
@@ -119,6 +124,8 @@ class MujocoBackend(HardwareAdapter):
             force = push.impulse * mass / push.duration * np.array([np.cos(direction), np.sin(direction), 0.0])
             self.world.add_push(int(self.map.base_body), push.time, push.duration, force)
         self._delay = deque(maxlen=dist.latency_ticks(self.control_dt) + 1)
+        self._ahead = None  # the state after a period run ahead of its write (run_ahead)
+        self._handed = None  # that state once its write came: what the next read returns
         self._noise = np.random.default_rng(dist.seed) if dist.sensor_noise else None
 
     # Lifecycle hooks --------------------------------------------------------------------------
@@ -142,6 +149,7 @@ class MujocoBackend(HardwareAdapter):
         mujoco.mj_rnePostConstraint(self.m, self.d)  # contact wrenches for the first read
 
     def _on_activate(self) -> None:
+        self._ahead = None  # a period run ahead before a stop has happened; the next write starts a new one
         if self._owns_world:
             self.world.open_viewer()
 
@@ -163,9 +171,30 @@ class MujocoBackend(HardwareAdapter):
         self.m.actuator_biasprm[a, 0] = kd * dq + tau_ff
 
     def _write(self, cmd: JointCommand) -> None:
+        if self._delay.maxlen > 1:  # kept for later periods: the caller may reuse its arrays meanwhile
+            cmd = JointCommand(*(np.array(a, dtype=float) for a in (cmd.q, cmd.dq, cmd.kp, cmd.kd, cmd.tau_ff)))
         self._delay.append(cmd)
+        if self._ahead is not None:  # this command's period has run already
+            self._handed, self._ahead = self._ahead, None
+            return
         if len(self._delay) == self._delay.maxlen:  # the command written latency ago reaches the servos
             self._apply(self._delay[0])
+        self._period()
+
+    def _run_ahead(self) -> bool:
+        """With a latency of L ≥ 1 periods, the next period applies the command written L − 1 writes
+        before the last one: that period runs now, and its state is read as its write would read it."""
+        latency = self._delay.maxlen - 1
+        if not (self._owns_world and latency and self._ahead is None):
+            return False
+        if len(self._delay) >= latency:
+            self._apply(self._delay[len(self._delay) - latency])
+        self._period()
+        self._ahead = self._measure()
+        return True
+
+    def _period(self) -> None:
+        """One control period of the world, under the servo command applied last."""
         if self.cabinet is not None:
             self.cabinet.before_period(self.d)
         self.world.submit()
@@ -202,6 +231,13 @@ class MujocoBackend(HardwareAdapter):
         return (states[1:, self._gyro_col].sum(axis=0) + now) / n
 
     def _read(self) -> JointState:
+        if self._handed is not None:
+            state, self._handed = self._handed, None
+            return state
+        return self._measure()
+
+    def _measure(self) -> JointState:
+        """The state at the present time, as the sensors report it."""
         m, d, mp = self.m, self.d, self.map
         b, v = mp.base_qpos, mp.base_dof
         rot = d.xmat[mp.base_body].reshape(3, 3)

@@ -8,7 +8,10 @@ done. ``read()`` waits for that state. So the controller computes while the robo
 would with a real robot. Lifecycle calls (``configure``, ``activate``, ``estop``, ...) are
 forwarded and waited for; a write followed by another write (or by a lifecycle call) first waits
 for the first write's period to end. Nothing else differs from calling the backend directly: the
-same calls reach it in the same order, so a run gives the same numbers either way.
+same calls reach it in the same order, so a run gives the same numbers either way. After each
+write the child calls the backend's ``run_ahead()``: with a simulated command latency of a period
+or more the robot then simulates the next period while the controller computes its command
+(``MujocoBackend``), the states read still lock-step's, bit for bit.
 
 Why a process and not a thread: a thread has to take Python's interpreter lock from the busy
 controller to start each period, a hand-over that cost several times what waking a process costs
@@ -131,6 +134,7 @@ def _serve(slot: _CallSlot, backend: Callable[[], HardwareAdapter], command: Sha
         slot.reply(exc, failed=True)
         return
     slot.reply()
+    ahead_failure = None  # what the period run ahead raised: the next write's or read's reply
     while True:
         call = slot.take(timeout=1.0)
         if call is None:
@@ -138,8 +142,14 @@ def _serve(slot: _CallSlot, backend: Callable[[], HardwareAdapter], command: Sha
                 hw.close()
                 return
             continue
+        if ahead_failure is not None and call in ("write", "read"):
+            slot.reply(ahead_failure, failed=True)
+            ahead_failure = None
+            continue
+        ahead_failure = None  # a lifecycle call (an e-stop, a close) runs all the same
         try:
-            if call == "write":
+            wrote = call == "write"
+            if wrote:
                 hw.write(command.get())
                 call = "read"
             if call == "read":
@@ -152,6 +162,11 @@ def _serve(slot: _CallSlot, backend: Callable[[], HardwareAdapter], command: Sha
             slot.reply(exc, failed=True)
         else:
             slot.reply(value)
+            if wrote:
+                try:
+                    hw.run_ahead()  # the next period, where its command is known, while the controller computes
+                except Exception as exc:
+                    ahead_failure = exc
         if call == "close":
             return
 
