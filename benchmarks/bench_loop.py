@@ -143,26 +143,28 @@ def main() -> None:
     timer = StageTimer()
     original = wc.WalkingController.__init__
 
-    def instrumented(self, *args, **kwargs):
-        original(self, *args, **kwargs)
-        self.wpg.update = timer.wrap("  MPC update (every 20th tick)", self.wpg.update)
-        self.ik.prepare = timer.wrap("  IK prepare", self.ik.prepare)
-        self.ik.finish = timer.wrap("  IK finish", self.ik.finish)
-        self.estimator.estimate = timer.wrap("  estimator", self.estimator.estimate)
-        self.prepare = timer.wrap("controller prepare (while the robot moves)", self.prepare)
-        self.step = timer.wrap("controller step (after the read)", self.step)
-
     def robot_process(disturbances: Disturbances = Disturbances()) -> RobotProcess:
         return RobotProcess(functools.partial(MujocoBackend, robot, disturbances=disturbances), robot.nj)
 
-    def walk(disturbances: Disturbances = Disturbances()):
+    def walk(stages: StageTimer, disturbances: Disturbances = Disturbances()):
+        """The 2 m walk with its stages timed into ``stages``."""
+
+        def instrumented(self, *args, **kwargs):
+            original(self, *args, **kwargs)
+            self.wpg.update = stages.wrap("  MPC update (every 20th tick)", self.wpg.update)
+            self.ik.prepare = stages.wrap("  IK prepare", self.ik.prepare)
+            self.ik.finish = stages.wrap("  IK finish", self.ik.finish)
+            self.estimator.estimate = stages.wrap("  estimator", self.estimator.estimate)
+            self.prepare = stages.wrap("controller prepare (while the robot moves)", self.prepare)
+            self.step = stages.wrap("controller step (after the read)", self.step)
+
         # The walk's robot process starts here, not while the physics alone is measured before it.
         process = robot_process(disturbances)
-        process.write = timer.wrap("write (command handed to the robot)", process.write)
-        process.read = timer.wrap("read (waits for the robot's period)", process.read)
+        process.write = stages.wrap("write (command handed to the robot)", process.write)
+        process.read = stages.wrap("read (waits for the robot's period)", process.read)
         split = TickSplit(process)
         hw = SafetyLayer(process, SafetyLimits.for_simulation(robot), clock=None)  # as open_hardware("mujoco")
-        hw.write = timer.wrap("safety layer write (checks, then the write above)", hw.write)
+        hw.write = stages.wrap("safety layer write (checks, then the write above)", hw.write)
         wc.WalkingController.__init__ = instrumented
         try:
             return run_walk(robot, hw, WalkGoal(distance=2.0, speed=0.25), log=lambda _: None), split
@@ -171,11 +173,8 @@ def main() -> None:
             hw.close()
 
     def walks():
-        lockstep = walk()
-        stages = {name: list(samples) for name, samples in timer.samples.items()}
-        delayed, _ = walk(Disturbances(latency=0.005))  # timed as the first, its stages not printed
-        timer.samples = defaultdict(list, stages)
-        return lockstep, delayed
+        # The second walk is timed as the first; its stages are not printed.
+        return walk(timer), walk(StageTimer(), Disturbances(latency=0.005))[0]
 
     ((report, split), delayed), before, after, remote = physics_around(robot, robot_process, walks)
     print(f"full loop, 2 m walk, {report['time_s']:.1f} s simulated: real-time factor {report['rtf']:.2f}x "

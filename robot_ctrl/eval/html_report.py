@@ -78,9 +78,8 @@ th,td{{border:1px solid #ccc;padding:3px 8px;text-align:left;font-size:90%;}} im
 def _cell(value) -> str:
     """A summary value as HTML: a dict holding dicts or more than 8 entries (the safety layer's
     report) as a table of its own, a per-joint figure listed largest first; anything else as text."""
-    if not isinstance(value, dict) or not value:
-        return html.escape(_fmt(value))
-    if len(value) <= 8 and not any(isinstance(v, dict) for v in value.values()):
+    nested = isinstance(value, dict) and (len(value) > 8 or any(isinstance(v, dict) for v in value.values()))
+    if not nested:
         return html.escape(_fmt(value))
     if all(isinstance(v, (int, float)) for v in value.values()):
         ranked = sorted(value.items(), key=lambda item: -item[1])
