@@ -28,15 +28,15 @@ from collections import defaultdict
 
 import numpy as np
 
-from robot_ctrl.control import walking_controller as wc
-from robot_ctrl.control.path_follower import WalkGoal
-from robot_ctrl.hw.disturbances import Disturbances
-from robot_ctrl.hw.mujoco_backend import MujocoBackend
-from robot_ctrl.hw.robot_process import RobotProcess
+from robot_ctrl.control.commanders.path_follower import WalkGoal
+from robot_ctrl.control.controllers import walking_controller as wc
 from robot_ctrl.hw.safety import SafetyLayer, SafetyLimits
 from robot_ctrl.hw.types import JointCommand
 from robot_ctrl.robot import load_robot
 from robot_ctrl.scenarios.walk import run_walk
+from robot_ctrl.sim.disturbances import Disturbances
+from robot_ctrl.sim.mujoco_backend import MujocoBackend
+from robot_ctrl.sim.robot_process import RobotProcess
 
 
 class StageTimer:

@@ -1,15 +1,22 @@
 """One stack-of-tasks IK tick for Talos: robot_ctrl's strict 3-level hierarchy vs mink's solve_ik and
 placo's KinematicsSolver.
 
-Both solve the same tasks on the same robot, from the same configuration, for a right-hand reach
-(the balance demo's): feet 6D ×2, CoM 3D, waist orientation, right-hand position, posture over
-all joints, with joint position and velocity limits. robot_ctrl solves them as a strict hierarchy
-(feet > CoM + waist > hand + posture) with quadprog; mink as one weighted QP (feet and CoM
-weighted highest); placo (C++) with the feet as hard constraints and the rest soft, weighted as
-mink's but for the hand, weighted up until it reaches as close as robot_ctrl's (at mink's weight it
-stops centimetres short; the script prints each one's hand error). A tick is one solve plus the
-integration of the configuration (and, for placo, its kinematics update, which robot_ctrl's tick
-includes).
+All three solve the same tasks on the same robot, from the same configuration, for a right-hand
+reach (the balance demo's): feet 6D ×2, CoM 3D, waist orientation, right-hand position, posture
+over all joints, with joint position and velocity limits; one solve per tick each, and the whole
+tick timed on every side. What each solves:
+- robot_ctrl: a strict hierarchy (feet > CoM + waist > hand + posture), each level a QP with the
+  joint limits, the higher levels' tasks held exactly.
+- mink: one weighted QP (``solve_ik`` with quadprog, its fastest solver installed here). The feet
+  are soft tasks of cost 100, as high as the CoM's: mink can hold them exactly instead
+  (``solve_ik(..., constraints=[...])``, equality constraints), but soft feet are the faster of its
+  two options, so the comparison gives mink its best case.
+- placo (C++ ``KinematicsSolver``): the feet hard (equality constraints), the rest soft, weighted
+  as mink's but for the hand, weighted up until it reaches as close as robot_ctrl's (at mink's
+  weight it stops centimetres short; the script prints each one's hand error): placo's own
+  recommended use, supports hard and everything else soft.
+A tick is one solve plus the integration of the configuration (and, for placo, its kinematics
+update, which robot_ctrl's tick includes).
 
 Prints the median and p99 tick time and the ratios mink / robot_ctrl and placo / robot_ctrl (mink
 and placo are the optional ``bench`` extra; without them only robot_ctrl is timed). The three are

@@ -13,12 +13,13 @@ See ``examples/`` for whole scripts. The names are imported on first use, so tha
 ``import robot_ctrl`` (and the command line) stays quick.
 """
 
-import importlib
 import os
 import sys
 from pathlib import Path
 
 from threadpoolctl import threadpool_limits
+
+from robot_ctrl.lazy_exports import lazy_exports
 
 __version__ = "0.1.0"
 
@@ -39,53 +40,33 @@ if sys.platform.startswith("linux") and not (os.environ.get("DISPLAY") or os.env
 _INSTALLED = Path(__file__).resolve().parent / "_data"
 ROOT = _INSTALLED if (_INSTALLED / "configs").is_dir() else Path(__file__).resolve().parent.parent
 
-#: Public name → the module that defines it.
-_EXPORTS = {
+#: Each public name under the module that defines it (relative to robot_ctrl).
+__all__, __getattr__, __dir__ = lazy_exports(__name__, {
     # robots
-    "RobotModel": "robot_ctrl.robot.model", "load_robot": "robot_ctrl.robot.model",
-    "configuration": "robot_ctrl.robot.model", "RobotConfig": "robot_ctrl.robot.config",
-    "ConfigError": "robot_ctrl.robot.config",
-    # hardware: adapters, what crosses them, disturbances of a simulated robot
-    "open_hardware": "robot_ctrl.hw.hardware", "HardwareAdapter": "robot_ctrl.hw.adapter",
-    "HardwareFault": "robot_ctrl.hw.adapter", "SafetyLayer": "robot_ctrl.hw.safety", "SafetyMode": "robot_ctrl.hw.safety",
-    "JointState": "robot_ctrl.hw.types", "JointCommand": "robot_ctrl.hw.types", "LifecycleState": "robot_ctrl.hw.types",
-    "Disturbances": "robot_ctrl.hw.disturbances", "Push": "robot_ctrl.hw.disturbances",
-    "DrawerPlacement": "robot_ctrl.hw.drawer_cabinet",
+    "robot.model": ["RobotModel", "load_robot", "configuration"], "robot.config": ["RobotConfig", "ConfigError"],
+    # hardware: the interface, what crosses it, the safety layer; backends chosen by name
+    "hw.adapter": ["HardwareAdapter", "HardwareFault"], "hw.safety": ["SafetyLayer", "SafetyMode"],
+    "hw.types": ["JointState", "JointCommand", "LifecycleState"], "scenarios.hardware": ["open_hardware"],
+    # the simulated world: disturbances of a simulated robot, props
+    "sim.disturbances": ["Disturbances", "Push"], "sim.drawer_cabinet": ["DrawerPlacement"],
     # modes a user chooses between
-    "ArmMotion": "robot_ctrl.modes", "BaseState": "robot_ctrl.modes", "FilterMode": "robot_ctrl.modes",
-    "HardwareKind": "robot_ctrl.modes",
+    "modes": ["ArmMotion", "BaseState", "FilterMode", "HardwareKind"],
     # the pipeline's stages and the values between them
-    "WalkParams": "robot_ctrl.wpg.params", "Footstep": "robot_ctrl.wpg.footstep", "GaitPhase": "robot_ctrl.wpg.plan",
-    "WalkReference": "robot_ctrl.wpg.plan", "PlanPreview": "robot_ctrl.wpg.plan", "Touchdown": "robot_ctrl.wpg.plan",
-    "WholeBodyIK": "robot_ctrl.sot.whole_body_ik", "Action": "robot_ctrl.synthesis.step_planning",
+    "wpg.params": ["WalkParams"], "wpg.footstep": ["Footstep"],
+    "wpg.plan": ["GaitPhase", "WalkReference", "PlanPreview", "Touchdown"],
+    "sot.whole_body_ik": ["WholeBodyIK"], "synthesis.step_planning": ["Action"],
+    "synthesis.learned": ["load_primitives"],
     # controllers, their commands and commanders, the loop
-    "WalkingController": "robot_ctrl.control.walking_controller",
-    "WalkingOptions": "robot_ctrl.control.walking_controller", "PlanSample": "robot_ctrl.control.walking_controller",
-    "BalanceController": "robot_ctrl.control.balance_controller",
-    "BalanceParams": "robot_ctrl.control.balance_controller", "static_torques": "robot_ctrl.control.static_feedforward",
-    "PathCommander": "robot_ctrl.control.path_commander", "WalkGoal": "robot_ctrl.control.path_follower",
-    "ControlLoop": "robot_ctrl.control.loop", "LoopResult": "robot_ctrl.control.loop", "Tick": "robot_ctrl.control.loop",
+    "control.controllers.walking_controller": ["WalkingController", "WalkingOptions", "PlanSample"],
+    "control.controllers.balance_controller": ["BalanceController", "BalanceParams"],
+    "control.controllers.static_feedforward": ["static_torques"],
+    "control.commanders.path_commander": ["PathCommander"], "control.commanders.path_follower": ["WalkGoal"],
+    "control.loop.control_loop": ["ControlLoop", "LoopResult", "Tick"],
     # recorders, stop conditions, metrics and reports
-    "RunMetrics": "robot_ctrl.eval.run_metrics", "FallCriterion": "robot_ctrl.eval.fall",
-    "MetricsRecorder": "robot_ctrl.eval.recorders", "ProgressBar": "robot_ctrl.eval.recorders",
-    "Fell": "robot_ctrl.eval.recorders", "TimeLimit": "robot_ctrl.eval.recorders", "HeldFor": "robot_ctrl.eval.recorders",
-    "write_report": "robot_ctrl.eval.report_file", "render_report": "robot_ctrl.eval.html_report",
+    "eval.recording.run_metrics": ["RunMetrics"], "eval.recording.fall": ["FallCriterion"],
+    "eval.recording.recorders": ["MetricsRecorder", "ProgressBar", "Fell", "TimeLimit", "HeldFor"],
+    "eval.recording.report_file": ["write_report"], "eval.reports.html_report": ["render_report"],
     # scenarios: one user task each
-    "run_walk": "robot_ctrl.scenarios.walk", "WalkSettings": "robot_ctrl.scenarios.walk",
-    "run_balance": "robot_ctrl.scenarios.balance", "run_drawer": "robot_ctrl.scenarios.drawer",
-    "DrawerTask": "robot_ctrl.scenarios.drawer_task", "load_primitives": "robot_ctrl.synthesis.learned",
-}
-
-__all__ = sorted(_EXPORTS)
-
-
-def __getattr__(name: str):
-    if name not in _EXPORTS:
-        raise AttributeError(f"module 'robot_ctrl' has no attribute {name!r}")
-    value = getattr(importlib.import_module(_EXPORTS[name]), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+    "scenarios.walk": ["run_walk", "WalkSettings"], "scenarios.balance": ["run_balance"],
+    "scenarios.drawer": ["run_drawer"], "scenarios.drawer_task": ["DrawerTask"],
+})

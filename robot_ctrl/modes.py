@@ -37,11 +37,11 @@ class BaseState(_Mode):
     """Where the controller's base pose and velocity come from."""
 
     SIMULATED = "simulated"  # the simulator's ground truth
-    ESTIMATED = "estimated"  # IMU + leg kinematics + foot contacts (``control/base_estimator.py``)
+    ESTIMATED = "estimated"  # IMU + leg kinematics + foot contacts (``control/estimation/base_estimator.py``)
 
 
 class HardwareKind(_Mode):
-    """The backends a scenario runs on (``robot_ctrl.hw.hardware.open_hardware``)."""
+    """The backends a scenario runs on (``robot_ctrl.scenarios.hardware.open_hardware``)."""
 
     MUJOCO = "mujoco"
     MIT_CAN_EMULATED = "mit-can-emulated"

@@ -4,10 +4,10 @@ clean and with the attitude noise of ``--sensor-noise``."""
 import numpy as np
 import pinocchio as pin
 
-from robot_ctrl.control.attitude_filter import AttitudeFilter
+from robot_ctrl.control.estimation.attitude_filter import AttitudeFilter
 from robot_ctrl.geometry import yaw_of
-from robot_ctrl.hw.disturbances import NOISE
 from robot_ctrl.hw.types import JointState
+from robot_ctrl.sim.disturbances import NOISE
 
 DT, N = 0.005, 1000  # 5 s at 200 Hz
 OMEGA = np.array([0.3, -0.2, 0.5])  # [rad/s] a constant body-frame turn
@@ -64,3 +64,22 @@ def test_a_gap_in_the_readings_restarts_the_filter_on_the_reading():
     late = states[200]  # 0.5 s after the last reading
     np.testing.assert_array_equal(imu.update(late).base_quat_xyzw, late.base_quat_xyzw)
     np.testing.assert_array_equal(imu.start_pose[:2], [1.0, 2.0])
+
+
+def test_the_first_readings_are_averaged():
+    """Standing still, the gain ``max(1/n, dt/τ)`` makes the n-th estimate the mean of the first n
+    readings while 1/n is the larger: 20 noisy readings give their mean, to second order in the
+    noise, not a value still near the first reading (what the floor ``dt/τ`` alone would give)."""
+    rng = np.random.default_rng(3)
+    imu = AttitudeFilter()
+    deviations = []
+    for k in range(20):
+        noise = rng.normal(0.0, SIGMA, 3)
+        deviations.append(noise)
+        reading = JointState(t=k * DT, q=np.zeros(2), dq=np.zeros(2), tau=np.zeros(2), base_pos=np.zeros(3),
+                             base_quat_xyzw=quat_xyzw(START @ pin.exp3(noise)), base_angvel=np.zeros(3))
+        out = imu.update(reading)
+    estimate = pin.log3(START.T @ pin.Quaternion(*out.base_quat_xyzw[[3, 0, 1, 2]]).matrix())
+    mean = np.mean(deviations, axis=0)
+    assert np.linalg.norm(estimate - mean) < 3e-4  # the mean of the readings
+    assert np.linalg.norm(mean - deviations[0]) > 3 * 3e-4  # and far from the first reading alone

@@ -8,7 +8,7 @@ import pinocchio as pin
 import pytest
 
 from robot_ctrl.cli import main
-from robot_ctrl.control.static_feedforward import static_torques, weight_shares
+from robot_ctrl.control.controllers.static_feedforward import static_torques, weight_shares
 from robot_ctrl.robot import load_robot
 
 

@@ -9,7 +9,7 @@ import pinocchio as pin
 import pytest
 
 from robot_ctrl.cli import main
-from robot_ctrl.control.base_estimator import BaseEstimator
+from robot_ctrl.control.estimation.base_estimator import BaseEstimator
 from robot_ctrl.geometry import GRAVITY, SIDES
 from robot_ctrl.hw.types import JointState
 

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from robot_ctrl.cli import main
-from robot_ctrl.control.pacer import Pacer
-from robot_ctrl.control.start_sequence import StartParams, StartRefused, StartSequence
+from robot_ctrl.control.loop.pacer import Pacer
+from robot_ctrl.control.loop.start_sequence import StartParams, StartRefused, StartSequence
 from robot_ctrl.hw.adapter import HardwareAdapter, HardwareFault
 from robot_ctrl.hw.safety import SafetyLayer, SafetyLimits
 from robot_ctrl.hw.types import JointCommand, JointState

@@ -9,7 +9,7 @@ import copy
 import pytest
 import yaml
 
-from robot_ctrl.hw.bus_config import HW_CONFIGS, load_bus_config, shipped_bus_configs
+from robot_ctrl.buses.bus_config import HW_CONFIGS, load_bus_config, shipped_bus_configs
 from robot_ctrl.robot.config import ConfigError
 
 LEG = "leg_left_1_joint"

@@ -8,11 +8,18 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
 
 from robot_ctrl.cli import main
-from robot_ctrl.eval.drawer_campaign import DRAWN_DISTANCES, draw_trials, method_dataset, read_trials, summarize
+from robot_ctrl.eval.campaigns.drawer_campaign import (
+    DRAWN_DISTANCES,
+    draw_trials,
+    method_dataset,
+    read_trials,
+    summarize,
+)
 from robot_ctrl.modes import FilterMode, SpeedClass
 from robot_ctrl.synthesis.demonstrations import kinematic_dataset_path
 
@@ -35,11 +42,19 @@ def rows(out):
             for r in json.loads((out / "campaign.json").read_text())["trials"]}
 
 
-def trial_processes() -> int:
-    """Processes of campaign trials running on this machine (each trial's command line names its
-    temporary output folder; the simulated robot and the filter worker are forks of it)."""
-    found = subprocess.run(["pgrep", "-f", "--", "--out /tmp.*/robot-ctrl-trial-"], capture_output=True, text=True)
-    return len(found.stdout.split())
+def trial_processes(temp: Path) -> int:
+    """Processes of the trials of the campaign that runs with ``TMPDIR=temp`` (each trial's command
+    line names its output folder there; the simulated robot and the filter worker are forks of it).
+    Only this test's own campaign counts: other campaigns on the machine have other folders."""
+    mine = f"{temp}/robot-ctrl-trial-"
+    count = 0
+    for cmdline in Path("/proc").glob("[0-9]*/cmdline"):
+        try:
+            args = cmdline.read_bytes().split(b"\0")
+        except OSError:  # the process ended meanwhile
+            continue
+        count += any(arg.decode(errors="replace").startswith(mine) for arg in args)
+    return count
 
 
 def wait_for_rows(out, n, process, limit=300.0):
@@ -134,9 +149,12 @@ def test_stopped_campaigns_resume_and_ray_gives_the_local_rows(tmp_path):
     assert len(list((local / "trials").glob("*/row.json"))) == 2 and not (local / "campaign.json").exists()
     # SIGKILL while the third runs (its controller, simulated robot and filter worker all up): nothing
     # of it is left, and no process of it outlives the campaign.
-    process = subprocess.Popen(campaign(local, path, "--jobs", "1"), stderr=subprocess.DEVNULL)
+    temp = tmp_path / "tmp"
+    temp.mkdir()
+    process = subprocess.Popen(campaign(local, path, "--jobs", "1"), stderr=subprocess.DEVNULL,
+                               env=os.environ | {"TMPDIR": str(temp)})
     start = time.monotonic()
-    while trial_processes() < 3:
+    while trial_processes(temp) < 3:
         assert time.monotonic() - start < 60
         time.sleep(0.1)
     time.sleep(1.0)
@@ -144,7 +162,7 @@ def test_stopped_campaigns_resume_and_ray_gives_the_local_rows(tmp_path):
     process.wait()
     time.sleep(1.5)
     assert len(list((local / "trials").glob("*/row.json"))) == 2 and not list((local / "trials").glob(".*"))
-    assert trial_processes() == 0
+    assert trial_processes(temp) == 0
     # The same command finishes the third trial only.
     done = subprocess.run(campaign(local, path, "--jobs", "1"), capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr[-1000:]
@@ -163,7 +181,7 @@ def test_stopped_campaigns_resume_and_ray_gives_the_local_rows(tmp_path):
 def test_the_campaign_page_sets_falls_beside_the_thesis(tmp_path):
     """Table 3.1's layout: a row per method and source count, falls per speed class, the thesis's
     row beside it where it has one; and the figures of Figs. 3.47, 3.41 and 3.46."""
-    from robot_ctrl.eval.campaign_report import render_campaign
+    from robot_ctrl.eval.reports.campaign_report import render_campaign
 
     rows = [{"id": f"{k:03d}", "method": method, "sources": "3+2", "speed": speed, "fell": fell, "success": not fell,
              "error": None, "step_length_errors_m": [0.002, -0.004], "hand_error_m": 0.001,
@@ -181,9 +199,9 @@ def test_the_campaign_page_sets_falls_beside_the_thesis(tmp_path):
 def test_the_campaign_page_shows_the_posture_after_the_step_before(tmp_path, talos):
     """Fig. 3.38 for the primitives of the campaign's own trials: two goals whose last short cycles
     differ end in different standing postures, per demonstration set and source count."""
-    from robot_ctrl.eval.campaign_report import render_campaign
-    from robot_ctrl.eval.drawer_campaign import campaign_transitions, transition_figure
-    from robot_ctrl.eval.transition_postures import transition_summary
+    from robot_ctrl.eval.campaigns.drawer_campaign import campaign_transitions, transition_figure
+    from robot_ctrl.eval.reports.campaign_report import render_campaign
+    from robot_ctrl.eval.reports.transition_postures import transition_summary
     from robot_ctrl.synthesis.demonstrations import feasible_dataset_path
 
     rows = [{"id": "000", "method": method, "dataset": str(feasible_dataset_path("talos")), "sources": "3+2",

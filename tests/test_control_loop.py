@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from robot_ctrl.cli import main
-from robot_ctrl.control.loop import ControlLoop
-from robot_ctrl.eval.recorders import TimeLimit
-from robot_ctrl.hw.hardware import open_hardware
+from robot_ctrl.control.loop.control_loop import ControlLoop
+from robot_ctrl.eval.recording.recorders import TimeLimit
 from robot_ctrl.hw.types import JointCommand
+from robot_ctrl.scenarios.hardware import open_hardware
 from robot_ctrl.wpg.params import WalkParams
 
 
@@ -166,7 +166,7 @@ def test_an_interrupt_inside_compiled_code_exits_130_in_one_line(monkeypatch, ca
 def test_the_pacers_record_stays_bounded_and_keeps_the_worst_tick():
     """A run of hours must not grow the pacer's record: the latest ticks are kept for the median and
     the 99th percentile, the count and the worst lateness over every tick."""
-    from robot_ctrl.control.pacer import LATENESS_WINDOW, Pacer
+    from robot_ctrl.control.loop.pacer import LATENESS_WINDOW, Pacer
 
     clock = {"t": 0.0, "oversleep": 0.002}
 
@@ -192,7 +192,7 @@ def test_a_paced_run_keeps_the_garbage_collector_off_what_existed_before_it(talo
     the run; a simulated run (no pacer) leaves the collector as it is."""
     import gc
 
-    from robot_ctrl.control.pacer import Pacer
+    from robot_ctrl.control.loop.pacer import Pacer
 
     class FrozenDuringStep(HoldPosture):
         def step(self, state):

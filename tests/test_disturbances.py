@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from robot_ctrl.cli import main
-from robot_ctrl.hw.disturbances import Disturbances, Push
-from robot_ctrl.hw.mujoco_backend import MujocoBackend
 from robot_ctrl.hw.types import JointCommand
+from robot_ctrl.sim.disturbances import Disturbances, Push
+from robot_ctrl.sim.mujoco_backend import MujocoBackend
 
 
 def hold(robot, state):

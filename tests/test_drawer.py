@@ -9,13 +9,13 @@ import pytest
 
 from robot_ctrl import ROOT
 from robot_ctrl.cli import main
-from robot_ctrl.eval.feasible_demonstrations import demonstration_from_run, touchdowns
+from robot_ctrl.eval.campaigns.feasible_demonstrations import demonstration_from_run, touchdowns
 from robot_ctrl.geometry import GRAVITY
-from robot_ctrl.geometry.drawer import DRAWER_READINGS, DrawerGeometry
-from robot_ctrl.hw.drawer_cabinet import DrawerPlacement
-from robot_ctrl.hw.mujoco_backend import MujocoBackend
+from robot_ctrl.geometry.drawer_geometry import DRAWER_READINGS, DrawerGeometry
 from robot_ctrl.hw.types import JointCommand
 from robot_ctrl.robot.model import load_robot
+from robot_ctrl.sim.drawer_cabinet import DrawerPlacement
+from robot_ctrl.sim.mujoco_backend import MujocoBackend
 from robot_ctrl.synthesis.demonstrations import comfort_distance, upper_body_joints
 
 
@@ -123,7 +123,7 @@ def test_drawer_takes_a_real_force_to_open(name):
     backend = MujocoBackend(robot, prop=DrawerPlacement(1.2, "front_left"))
     backend.configure()
     backend.activate()
-    m, d, cabinet = backend.m, backend.d, backend.cabinet
+    m, d, cabinet = backend.m, backend.d, backend.prop
     assert m.jnt_range[m.joint("drawer_slide").id].tolist() == pytest.approx([0.0, geometry.travel])
     assert m.body("drawer").mass[0] == pytest.approx(geometry.drawer_mass)
     state = backend.read()
@@ -197,7 +197,7 @@ def drawer_log(opening=0.18, short_by=0.0):
 
 
 def outcome(log):
-    from robot_ctrl.eval.drawer_recorder import drawer_outcome
+    from robot_ctrl.eval.recording.drawer_recorder import drawer_outcome
 
     return drawer_outcome(log, [1.0, 3.0, 5.0, 10.0], [0.4, 0.2, 0.0], lambda xy: float(xy[0]), fell=False,
                           required_opening=0.14, comfort=0.647, ankle_limit=np.array([160.0, 160.0]))
@@ -219,7 +219,7 @@ def test_every_drawer_report_field_from_a_logged_run():
     the grasp from the first tick the weld holds (a reading of 0.5 is not a grasp), the hand at the
     handle then, not its closest; the last tick's opening, distance and hand; the ankles' peaks
     each over their own limit; success at the opening's and the object's thresholds exactly."""
-    from robot_ctrl.eval.drawer_recorder import drawer_outcome
+    from robot_ctrl.eval.recording.drawer_recorder import drawer_outcome
 
     log = drawer_log(opening=0.1812345)
     n = len(log["t"])

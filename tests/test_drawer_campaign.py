@@ -5,7 +5,7 @@ import dataclasses
 
 import pytest
 
-from robot_ctrl.eval.drawer_campaign import (
+from robot_ctrl.eval.campaigns.drawer_campaign import (
     DrawerTrial,
     draw_trials,
     drawer_row,
@@ -14,8 +14,8 @@ from robot_ctrl.eval.drawer_campaign import (
     read_trials,
     summarize,
 )
-from robot_ctrl.eval.trial_process import TrialOutcome
-from robot_ctrl.geometry.drawer import SLOTS
+from robot_ctrl.eval.campaigns.trial_process import TrialOutcome
+from robot_ctrl.geometry.drawer_geometry import SLOTS
 from robot_ctrl.modes import FilterMode, SpeedClass
 
 

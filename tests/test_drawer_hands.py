@@ -5,7 +5,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from robot_ctrl.control.drawer_hands import BIAS_SPEED, MAX_HAND_BIAS, DrawerHands
+from robot_ctrl.control.commanders.drawer_hands import BIAS_SPEED, MAX_HAND_BIAS, DrawerHands
 
 DT = 0.005
 

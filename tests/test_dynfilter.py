@@ -11,12 +11,12 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from robot_ctrl.control.walking_controller import WalkingController
+from robot_ctrl.control.controllers.walking_controller import WalkingController
 from robot_ctrl.dynfilter.dynamic_filter import DynamicFilter
 from robot_ctrl.dynfilter.filter_worker import DynamicFilterWorker
 from robot_ctrl.dynfilter.multibody_zmp import multibody_zmp
 from robot_ctrl.dynfilter.preview_correction import PreviewCorrection
-from robot_ctrl.hw.mujoco_backend import MujocoBackend
+from robot_ctrl.sim.mujoco_backend import MujocoBackend
 from robot_ctrl.wpg.plan import SolePlan
 
 

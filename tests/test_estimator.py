@@ -4,7 +4,7 @@ Pinocchio computed here and against wrenches whose ZMP is known by construction.
 import numpy as np
 import pinocchio as pin
 
-from robot_ctrl.control.estimator import StateEstimator
+from robot_ctrl.control.estimation.state_estimator import StateEstimator
 from robot_ctrl.geometry import GRAVITY
 from robot_ctrl.hw.types import JointState
 

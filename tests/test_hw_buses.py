@@ -10,21 +10,21 @@ import uuid
 import numpy as np
 import pytest
 
+from robot_ctrl.buses import dynamixel_protocol as dxl
+from robot_ctrl.buses.bus_config import HW_CONFIGS, load_bus_config
+from robot_ctrl.buses.dynamixel_backend import DynamixelBackend
+from robot_ctrl.buses.dynamixel_emulator import DynamixelEmulator
+from robot_ctrl.buses.mit_can_backend import MitCanBackend
+from robot_ctrl.buses.mit_can_emulator import MitCanEmulator
+from robot_ctrl.buses.mit_protocol import MitRanges, pack_command, pack_reply, unpack_command, unpack_reply
 from robot_ctrl.cli import main
-from robot_ctrl.control.walking_controller import WalkingController
-from robot_ctrl.hw import dynamixel_protocol as dxl
+from robot_ctrl.control.controllers.walking_controller import WalkingController
 from robot_ctrl.hw.adapter import HardwareFault, LifecycleError
-from robot_ctrl.hw.bus_config import HW_CONFIGS, load_bus_config
-from robot_ctrl.hw.dynamixel_backend import DynamixelBackend
-from robot_ctrl.hw.dynamixel_emulator import DynamixelEmulator
-from robot_ctrl.hw.mit_can_backend import MitCanBackend
-from robot_ctrl.hw.mit_can_emulator import MitCanEmulator
-from robot_ctrl.hw.mit_protocol import MitRanges, pack_command, pack_reply, unpack_command, unpack_reply
-from robot_ctrl.hw.mujoco_backend import MujocoBackend
 from robot_ctrl.hw.safety import SafetyLayer, SafetyLimits
 from robot_ctrl.hw.types import JointCommand, LifecycleState
 from robot_ctrl.robot import load_robot
 from robot_ctrl.robot.config import ConfigError
+from robot_ctrl.sim.mujoco_backend import MujocoBackend
 
 pytestmark = pytest.mark.realtime  # wall-clock timing: run apart from the parallel tests
 
@@ -351,8 +351,8 @@ def test_missed_replies_hold_the_last_value_then_fault_into_damping(talos, mit):
 
 
 def test_the_tick_log_records_missed_replies_and_safety_interventions(talos, mit, tmp_path):
-    from robot_ctrl.control.loop import Tick
-    from robot_ctrl.eval.tick_log import TickLogWriter, log_report, read_tick_log
+    from robot_ctrl.control.loop.control_loop import Tick
+    from robot_ctrl.eval.recording.tick_log import TickLogWriter, log_report, read_tick_log
 
     hw, emulator, clock, state = mit
     writer = TickLogWriter(tmp_path / "bus.log", talos, hw, DT)
@@ -394,7 +394,7 @@ def test_a_foreign_frame_shaped_like_a_reply_is_counted_not_read(talos, mit, mon
     taken as the hip's state: replies come to the host's id."""
     import can
 
-    from robot_ctrl.hw.mit_protocol import pack_reply
+    from robot_ctrl.buses.mit_protocol import pack_reply
 
     hw, emulator, clock, state = mit
     for _ in range(10):
@@ -710,7 +710,7 @@ def test_reply_loss_needs_the_emulated_mit_bus(capsys):
 
 
 def test_dynamixel_hardware_errors_gain_range_and_a_soft_torque_on(talos):
-    from robot_ctrl.hw.dynamixel_backend import ERROR_CHECK_TICKS
+    from robot_ctrl.buses.dynamixel_backend import ERROR_CHECK_TICKS
 
     hw, emulator, clock = configured_dynamixel(talos)
     try:
@@ -768,7 +768,7 @@ def test_dynamixel_protective_limits_are_written_at_configure_and_act(talos):
     """Shutdown, Temperature, PWM and Velocity Limit go to every servo at configure (read back);
     a servo that reaches its temperature limit reports overheating and switches its torque off,
     which the next status read turns into a fault naming it."""
-    from robot_ctrl.hw.dynamixel_backend import DEFAULT_TEMPERATURE_LIMIT, ERROR_CHECK_TICKS
+    from robot_ctrl.buses.dynamixel_backend import DEFAULT_TEMPERATURE_LIMIT, ERROR_CHECK_TICKS
 
     hw, emulator, clock = configured_dynamixel(talos)
     try:
@@ -803,7 +803,7 @@ def test_an_expired_dynamixel_bus_watchdog_fails_the_run(talos):
     """A host that stalls past the servos' bus watchdog (100 ms) leaves them stopped where they
     were, torque on, ignoring goals (the X-series e-manual): the next status read says so instead
     of the robot silently holding a stale posture."""
-    from robot_ctrl.hw.dynamixel_backend import ERROR_CHECK_TICKS
+    from robot_ctrl.buses.dynamixel_backend import ERROR_CHECK_TICKS
 
     hw, emulator, clock = configured_dynamixel(talos)
     try:

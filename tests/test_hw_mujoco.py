@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from robot_ctrl.hw import CommandError, JointCommand, LifecycleError, LifecycleState
-from robot_ctrl.hw.mujoco_backend import MujocoBackend
+from robot_ctrl.sim.mujoco_backend import MujocoBackend
 
 
 def hold(robot, q):

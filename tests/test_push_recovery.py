@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from robot_ctrl.cli import main
-from robot_ctrl.control.push_recovery import DEAD_BAND, plan_velocity_change
+from robot_ctrl.control.controllers.push_recovery import DEAD_BAND, plan_velocity_change
 
 OMEGA = 3.4
 

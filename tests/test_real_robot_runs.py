@@ -15,17 +15,17 @@ import emulated_body_sensors
 import numpy as np
 import pytest
 
+from robot_ctrl.buses.bus_config import load_bus_config
+from robot_ctrl.buses.mit_can_emulator import MitCanEmulator
 from robot_ctrl.cli import main
-from robot_ctrl.control.pacer import Pacer
-from robot_ctrl.control.path_follower import WalkGoal
-from robot_ctrl.control.start_sequence import StartParams
-from robot_ctrl.hw.bus_config import load_bus_config
-from robot_ctrl.hw.hardware import open_hardware
-from robot_ctrl.hw.mit_can_emulator import MitCanEmulator
-from robot_ctrl.hw.mujoco_backend import MujocoBackend
+from robot_ctrl.control.commanders.path_follower import WalkGoal
+from robot_ctrl.control.loop.pacer import Pacer
+from robot_ctrl.control.loop.start_sequence import StartParams
 from robot_ctrl.modes import BaseState
 from robot_ctrl.scenarios.bringup import HOLD_S
+from robot_ctrl.scenarios.hardware import open_hardware
 from robot_ctrl.scenarios.walk import WalkSettings, run_walk
+from robot_ctrl.sim.mujoco_backend import MujocoBackend
 
 pytestmark = pytest.mark.realtime  # wall-clock timing: run apart from the parallel tests
 

@@ -9,10 +9,10 @@ import pytest
 
 from robot_ctrl.hw import CommandError, JointCommand, JointState, LifecycleError, LifecycleState
 from robot_ctrl.hw.adapter import HardwareAdapter
-from robot_ctrl.hw.disturbances import Disturbances
-from robot_ctrl.hw.mujoco_backend import MujocoBackend
-from robot_ctrl.hw.robot_process import RobotProcess
-from robot_ctrl.hw.shared_state import SharedState
+from robot_ctrl.sim.disturbances import Disturbances
+from robot_ctrl.sim.mujoco_backend import MujocoBackend
+from robot_ctrl.sim.robot_process import RobotProcess
+from robot_ctrl.sim.shared_state import SharedState
 
 
 def hold(robot, q):

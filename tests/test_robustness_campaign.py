@@ -3,9 +3,9 @@
 import json
 
 from robot_ctrl.cli import main
-from robot_ctrl.eval.campaign_backends import LocalBackend
-from robot_ctrl.eval.robustness_campaign import run_robustness
-from robot_ctrl.eval.robustness_report import render_robustness
+from robot_ctrl.eval.campaigns.campaign_backends import LocalBackend
+from robot_ctrl.eval.campaigns.robustness_campaign import run_robustness
+from robot_ctrl.eval.reports.robustness_report import render_robustness
 
 
 def test_a_small_campaign(tmp_path):

@@ -483,3 +483,15 @@ def test_the_compiled_task_rows_equal_pinocchios_jacobians_and_log3(talos):
     np.testing.assert_array_equal(J, expected)
     np.testing.assert_array_equal(e, (com.target - data.com[0])[[0, 2]])
     np.testing.assert_allclose(data.com[0], pin.centerOfMass(model, data, q), rtol=0, atol=1e-15)
+
+
+def test_a_joint_inside_its_soft_margin_may_stay_there():
+    """Between its hard and soft limit a joint may stay or move out, never be pushed out: the
+    bound on the side of the margin is 0, not the velocity that would leave it within one step."""
+    dt, v_max = 0.005, 3.0
+    limits = JointLimits(q_index=np.array([0, 1]), v_index=np.array([0, 1]), names=("low", "high"),
+                         hard_min=np.array([-1.0, -1.0]), hard_max=np.array([1.0, 1.0]),
+                         q_min=np.array([-0.9, -0.9]), q_max=np.array([0.9, 0.9]), v_max=np.full(2, v_max))
+    lo, hi = limits.bounds(np.array([-0.95, 0.95]), dt)  # joint 0 in its lower margin, joint 1 in its upper
+    assert lo[0] == 0.0 and hi[0] == v_max
+    assert lo[1] == -v_max and hi[1] == 0.0

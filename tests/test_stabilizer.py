@@ -4,8 +4,8 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from robot_ctrl.control.estimator import Estimate
-from robot_ctrl.control.stabilizer import DcmStabilizer
+from robot_ctrl.control.controllers.stabilizer import DcmStabilizer
+from robot_ctrl.control.estimation.state_estimator import Estimate
 from robot_ctrl.geometry.support_polygon import SupportPolygon
 
 FEET = SupportPolygon.of_soles([(np.array([0.0, 0.09]), 0.0), (np.array([0.0, -0.09]), 0.0)], 0.21, 0.13)
@@ -36,7 +36,7 @@ def test_one_tick_of_the_feedback_law():
     """Δċ = k_zmp (p_meas − p_d) + k_com (c_ref − c_meas) − k_leak Δc, with p_d = p_ref + k_dcm (ξ_meas − ξ_ref),
     k_dcm = 1 + ω_dcm / ω, ξ = c + ċ / ω, integrated over one tick, each gain a different number so that a
     wrong sign or factor shows."""
-    from robot_ctrl.control.stabilizer import StabilizerGains
+    from robot_ctrl.control.controllers.stabilizer import StabilizerGains
 
     gains = StabilizerGains(dcm_rate=2.0, k_zmp=3.0, k_com=5.0, k_leak=7.0, max_offset=0.04)
     stabilizer = DcmStabilizer(com_height=0.8, gains=gains)
@@ -70,7 +70,7 @@ def test_the_lateral_dcm_rate_acts_across_the_heading():
     """K_dcm per axis of the walking frame: the forward rate along the heading, the lateral one across
     it, ``p_d = R diag(k_forward, k_lateral) Rᵀ (ξ_meas − ξ_ref)`` with R the heading's rotation (the
     default heading 0: the world's axes)."""
-    from robot_ctrl.control.stabilizer import StabilizerGains
+    from robot_ctrl.control.controllers.stabilizer import StabilizerGains
 
     omega = np.sqrt(9.81 / 0.8)
     k = np.diag([1 + 2.0 / omega, 1 + 6.0 / omega])
@@ -93,7 +93,7 @@ def test_the_lateral_dcm_rate_acts_across_the_heading():
 def test_a_robot_configs_gains_are_checked_field_by_field():
     """``StabilizerGains.of_robot``: the defaults under a config's fields; a field that is no gain, or
     a value outside (0, 100] (rates, 1/s) or (0, 0.2] (max_offset, m), is refused by name."""
-    from robot_ctrl.control.stabilizer import StabilizerGains
+    from robot_ctrl.control.controllers.stabilizer import StabilizerGains
 
     assert StabilizerGains.of_robot({}) == StabilizerGains()
     gains = StabilizerGains.of_robot({"lateral_dcm_rate": 6, "max_offset": 0.2, "k_zmp": 100})

@@ -6,7 +6,7 @@ import re
 import numpy as np
 
 from robot_ctrl.cli import main
-from robot_ctrl.eval.tick_log import log_report, read_tick_log
+from robot_ctrl.eval.recording.tick_log import log_report, read_tick_log
 
 SAME = ("fell", "fall_time_s", "time_s", "peak_torque_ratio", "peak_torque_joint", "peak_torque_nm", "peak_grf_n")
 
@@ -51,10 +51,10 @@ def test_the_log_is_written_off_the_control_thread(talos, tmp_path):
     import threading
     from types import SimpleNamespace
 
-    from robot_ctrl.eval.tick_log import TickLogWriter
-    from robot_ctrl.hw.mujoco_backend import MujocoBackend
+    from robot_ctrl.eval.recording.tick_log import TickLogWriter
     from robot_ctrl.hw.safety import SafetyLayer, SafetyLimits
     from robot_ctrl.hw.types import JointCommand
+    from robot_ctrl.sim.mujoco_backend import MujocoBackend
 
     hw = SafetyLayer(MujocoBackend(talos), SafetyLimits.for_simulation(talos), clock=None)
     hw.bring_up()
@@ -95,10 +95,10 @@ def test_a_record_holds_what_its_tick_had_and_nan_where_it_had_nothing(talos, tm
     from collections import deque
     from types import SimpleNamespace
 
-    from robot_ctrl.eval.tick_log import TickLogWriter
-    from robot_ctrl.hw.mujoco_backend import MujocoBackend
+    from robot_ctrl.eval.recording.tick_log import TickLogWriter
     from robot_ctrl.hw.safety import SafetyLayer, SafetyLimits
     from robot_ctrl.hw.types import JointCommand
+    from robot_ctrl.sim.mujoco_backend import MujocoBackend
 
     hw = SafetyLayer(MujocoBackend(talos), SafetyLimits.for_simulation(talos), clock=None)
     hw.bring_up()

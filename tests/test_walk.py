@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from robot_ctrl.cli import main
-from robot_ctrl.control.path_follower import PathFollower, WalkGoal
-from robot_ctrl.eval.robustness_campaign import push_phases
+from robot_ctrl.control.commanders.path_follower import PathFollower, WalkGoal
+from robot_ctrl.eval.campaigns.robustness_campaign import push_phases
 from robot_ctrl.robot import load_robot
 
 ROBOTS = ("talos", "g1")
@@ -107,7 +107,7 @@ def test_arm_swing_walk_with_the_full_dynamic_filter(tmp_path):
 
 
 def test_arm_swing_starts_smoothly_and_stays_in_limits(talos):
-    from robot_ctrl.control.arm_swing import AMPLITUDE, ArmSwing, elbows
+    from robot_ctrl.control.controllers.arm_swing import AMPLITUDE, ArmSwing, elbows
 
     base = np.array(talos.config.half_sitting)
     swing = ArmSwing.for_joints(elbows(talos), talos.joint_names, base, talos.lower, talos.upper)
@@ -125,9 +125,9 @@ def test_preparing_while_the_robot_moves_changes_no_command(talos):
     """prepare() between write and read (as run_walk does) gives the commands of step() alone, and
     the feedforward prepare computes at the extrapolated configuration stays within 0.5 N·m of the
     quasi-static torques at the configuration the IK then reaches."""
-    from robot_ctrl.control.static_feedforward import static_torques
-    from robot_ctrl.control.walking_controller import WalkingController
-    from robot_ctrl.hw.mujoco_backend import MujocoBackend
+    from robot_ctrl.control.controllers.static_feedforward import static_torques
+    from robot_ctrl.control.controllers.walking_controller import WalkingController
+    from robot_ctrl.sim.mujoco_backend import MujocoBackend
 
     hw = MujocoBackend(talos)
     hw.configure()

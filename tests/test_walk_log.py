@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from robot_ctrl.eval.walk_log import WalkLog
+from robot_ctrl.eval.recording.walk_log import WalkLog
 
 WEIGHT = 900.0  # [N]
 SOLE = (0.2, 0.1)

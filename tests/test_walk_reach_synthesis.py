@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from robot_ctrl.eval.feasible_demonstrations import demonstration_from_run, touchdowns
+from robot_ctrl.eval.campaigns.feasible_demonstrations import demonstration_from_run, touchdowns
 from robot_ctrl.scenarios.walk_reach_synthesis import GoalJump, run_synthesis
 from robot_ctrl.synthesis.demonstrations import (
     DemonstrationSet,
@@ -324,7 +324,7 @@ def test_a_query_beyond_the_demonstrations_is_held_inside_them(talos):
 def test_the_commanders_posture_ahead_interpolates_the_rollout_as_np_interp():
     """The posture the IK and the dynamic filter follow ahead of now, interpolated from the preview
     for all joints at once, equals np.interp joint by joint: between samples, at them, outside."""
-    from robot_ctrl.control.walk_reach_commander import interpolated_row
+    from robot_ctrl.control.commanders.walk_reach_commander import interpolated_row
 
     rng = np.random.default_rng(0)
     times = np.cumsum(rng.uniform(0.001, 0.02, 80))

@@ -7,10 +7,10 @@ from types import SimpleNamespace
 import numpy as np
 import pinocchio as pin
 
-from robot_ctrl.control.estimator import Estimate
-from robot_ctrl.control.path_follower import WalkGoal
-from robot_ctrl.eval.walk_log import WalkLog
-from robot_ctrl.eval.walk_recorder import SETTLE_AFTER_TOUCHDOWN, WalkRecorder
+from robot_ctrl.control.commanders.path_follower import WalkGoal
+from robot_ctrl.control.estimation.state_estimator import Estimate
+from robot_ctrl.eval.recording.walk_log import WalkLog
+from robot_ctrl.eval.recording.walk_recorder import SETTLE_AFTER_TOUCHDOWN, WalkRecorder
 from robot_ctrl.geometry.support_polygon import SupportPolygon
 from robot_ctrl.wpg.footstep import Footstep
 from robot_ctrl.wpg.plan import GaitPhase, SolePlan, Touchdown, WalkReference

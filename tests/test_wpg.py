@@ -299,3 +299,23 @@ def test_daqp_called_directly_solves_the_qp_casadi_solves():
         np.testing.assert_allclose(direct.footsteps, reference.footsteps, atol=1e-6)
         np.testing.assert_allclose(direct.zmp, reference.zmp, atol=1e-6)
         np.testing.assert_allclose(direct.com, reference.com, atol=1e-6)
+
+
+def test_a_landing_beyond_the_plan_repeats_the_last_step_mirrored():
+    """A swing whose landing the plan does not hold yet lands as the last step went: the lift foot
+    mirrored through the stance foot's heading line and carried the step's length ahead, so it stays
+    on its own side of the stance foot (the dynamic filter previews the legs with it)."""
+    from robot_ctrl.wpg.footstep import FootRef
+    from robot_ctrl.wpg.segments import Segment, swing_point
+
+    yaw = 0.3
+    R = rotation(yaw)
+    stance = FootRef("right", yaw, R @ [0.0, -0.1], np.zeros((2, 4)))
+    lift = FootRef("left", yaw, R @ [-0.2, 0.1], np.zeros((2, 4)))
+    segments = [Segment(0.1, [lift, stance], lift), Segment(0.7, [stance], stance)]
+    fallback = Footstep("left", *(R @ [-0.2, 0.1]), yaw)
+    start = swing_point(segments, 1, "left", np.zeros(4), 0.0, 0.05, fallback)
+    end = swing_point(segments, 1, "left", np.zeros(4), 1.0, 0.05, fallback)
+    np.testing.assert_allclose(start[0][:2], R @ [-0.2, 0.1], atol=1e-12)
+    np.testing.assert_allclose(end[0][:2], R @ [0.2, 0.1], atol=1e-12)  # ahead, still on the left
+    assert end[1] == pytest.approx(yaw) and end[0][2] == pytest.approx(0.0)

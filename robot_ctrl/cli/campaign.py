@@ -21,7 +21,7 @@ from robot_ctrl.robot.config import ConfigError
 
 
 def _campaign(args: argparse.Namespace) -> int:
-    from robot_ctrl.eval import drawer_campaign as campaign
+    from robot_ctrl.eval.campaigns import drawer_campaign as campaign
     from robot_ctrl.robot.model import load_robot
     from robot_ctrl.scenarios.drawer_task import DrawerTask
     from robot_ctrl.synthesis.synthesizer import GoalJump

@@ -81,8 +81,8 @@ def _crowd_run(args: argparse.Namespace) -> int:
     from robot_ctrl.crowd.experiments import CrowdDiverged, run_group
     from robot_ctrl.crowd.gait_coupling import GaitCoupling
     from robot_ctrl.crowd.gait_profile import GaitProfile
-    from robot_ctrl.eval.crowd_figures import plot_dispersion
-    from robot_ctrl.eval.report_file import write_report
+    from robot_ctrl.eval.recording.report_file import write_report
+    from robot_ctrl.eval.reports.crowd_figures import plot_dispersion
 
     check_ranges("crowd run", args)
     graph = _crowd_graph(args)
@@ -128,7 +128,7 @@ def _crowd_figure(args: argparse.Namespace) -> int:
     import json
 
     from robot_ctrl.crowd.experiments import rate_slopes
-    from robot_ctrl.eval.crowd_figures import plot_rate_slopes
+    from robot_ctrl.eval.reports.crowd_figures import plot_rate_slopes
 
     check_ranges("crowd figure", args)
     data = rate_slopes(runs=args.runs)
@@ -162,7 +162,7 @@ def _crowd_walk(args: argparse.Namespace) -> int:
 
 def _crowd_gait_profile(args: argparse.Namespace) -> int:
     from robot_ctrl.crowd.gait_profile import MODELS
-    from robot_ctrl.scenarios.gait_profile import measure_gait_profile
+    from robot_ctrl.scenarios.gait_profile_walk import measure_gait_profile
 
     check_ranges("crowd gait-profile", args)
     if HardwareKind.parse(args.hw).real:

@@ -63,7 +63,7 @@ def check_ranges(command: str, args: argparse.Namespace) -> None:
 
 
 def backend_args(p) -> None:
-    """``--backend`` and ``--address`` of a campaign (``eval/campaign_backends.py``)."""
+    """``--backend`` and ``--address`` of a campaign (``eval/campaigns/campaign_backends.py``)."""
     p.add_argument("--backend", choices=("local", "ray"), default="local",
                    help="local: this machine's processes; ray: a Ray cluster (--address) or a Ray instance "
                         "started here (docs/campaigns.md)")
@@ -72,7 +72,7 @@ def backend_args(p) -> None:
 
 def backend_of(args: argparse.Namespace, command: str):
     """The campaign backend ``--backend``, ``--jobs`` and ``--address`` ask for."""
-    from robot_ctrl.eval.campaign_backends import open_backend
+    from robot_ctrl.eval.campaigns.campaign_backends import open_backend
 
     try:
         return open_backend(args.backend, args.jobs, args.address)
@@ -130,7 +130,7 @@ def check_outputs(args: argparse.Namespace) -> None:
     if args.video is not None:
         if args.video.suffix.lower() != ".mp4":
             raise ConfigError(f"--video {args.video}: the file must end in .mp4")
-        from robot_ctrl.hw.mujoco_video import check_renderer
+        from robot_ctrl.sim.mujoco_video import check_renderer
 
         try:
             check_renderer()
@@ -184,7 +184,7 @@ def log_arg(p) -> None:
 def base_state_arg(p) -> None:
     p.add_argument("--base-state", choices=[m.value for m in BaseState],
                    help="the controller's base pose and velocity: the simulator's (default in simulation), or "
-                        "estimated from the IMU, the encoders and the foot force sensors (control/base_estimator.py; "
+                        "estimated from the IMU, the encoders and the foot force sensors (control/estimation/base_estimator.py; "
                         "the only one on real servos)")
 
 

@@ -27,7 +27,7 @@ from robot_ctrl.robot.config import ConfigError
 
 
 def _balance(args: argparse.Namespace) -> int:
-    from robot_ctrl.control.balance_controller import BalanceParams
+    from robot_ctrl.control.controllers.balance_controller import BalanceParams
     from robot_ctrl.scenarios.balance import run_balance
 
     base_state = base_state_of(args)
@@ -41,8 +41,8 @@ def _balance(args: argparse.Namespace) -> int:
 def _walk(args: argparse.Namespace) -> int:
     import math
 
-    from robot_ctrl.control.path_follower import WalkGoal
-    from robot_ctrl.control.walking_controller import WalkingOptions
+    from robot_ctrl.control.commanders.path_follower import WalkGoal
+    from robot_ctrl.control.controllers.walking_controller import WalkingOptions
     from robot_ctrl.robot.config import load_robot_config
     from robot_ctrl.scenarios.walk import WalkSettings, run_walk
     from robot_ctrl.wpg.params import WalkParams
@@ -71,10 +71,10 @@ def _walk(args: argparse.Namespace) -> int:
 
 
 def _drawer(args: argparse.Namespace) -> int:
-    from robot_ctrl.hw.drawer_cabinet import DrawerPlacement
     from robot_ctrl.robot.model import load_robot
     from robot_ctrl.scenarios.drawer import run_drawer
     from robot_ctrl.scenarios.drawer_task import DrawerTask
+    from robot_ctrl.sim.drawer_cabinet import DrawerPlacement
     from robot_ctrl.synthesis.learned import load_primitives
     from robot_ctrl.synthesis.synthesizer import SynthesisError
 
@@ -104,7 +104,7 @@ def _drawer(args: argparse.Namespace) -> int:
             raise ConfigError(f"drawer: --distance {task.distance} with these primitives (--dataset, --sources): "
                               f"{exc}") from exc
     if args.out is not None and not args.no_html:
-        from robot_ctrl.eval.html_report import render_report
+        from robot_ctrl.eval.reports.html_report import render_report
 
         log_line(f"wrote {render_report(args.out)}")
     return finish(args, report)
@@ -135,7 +135,7 @@ def check_drawer_tasks(tasks: dict, robot, options: dict[str, str] | None = None
 
 
 def _robustness(args: argparse.Namespace) -> int:
-    from robot_ctrl.eval import robustness_campaign as robustness
+    from robot_ctrl.eval.campaigns import robustness_campaign as robustness
     from robot_ctrl.wpg.params import WalkParams
 
     check_ranges("robustness", args)

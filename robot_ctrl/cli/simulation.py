@@ -40,8 +40,8 @@ def simulation_parent(robot: argparse.ArgumentParser) -> argparse.ArgumentParser
 
 
 def parse_disturbances(args: argparse.Namespace):
-    """``--push``, ``--mass-scale``, ... as :class:`~robot_ctrl.hw.disturbances.Disturbances`."""
-    from robot_ctrl.hw.disturbances import Disturbances, Push
+    """``--push``, ``--mass-scale``, ... as :class:`~robot_ctrl.sim.disturbances.Disturbances`."""
+    from robot_ctrl.sim.disturbances import Disturbances, Push
 
     try:
         dist = Disturbances(tuple(Push.parse(p) for p in args.push), args.mass_scale, args.friction_scale,
@@ -58,8 +58,8 @@ def simulation(args: argparse.Namespace, robot=None, prop=None):
     """The robot (``--robot``, unless the command loaded it already), its disturbances and its
     hardware for a single-robot scenario: simulated, emulated or real servos; ``prop``: a scene prop
     placed in the robot's world (the drawer cabinet)."""
-    from robot_ctrl.hw.hardware import open_hardware
     from robot_ctrl.robot.model import load_robot
+    from robot_ctrl.scenarios.hardware import open_hardware
 
     check_outputs(args)
     disturbances = parse_disturbances(args)
@@ -77,7 +77,7 @@ def simulation(args: argparse.Namespace, robot=None, prop=None):
 
 def check_controller_config(robot) -> None:
     """The robot config's walking parameters and balance gains, checked before anything moves."""
-    from robot_ctrl.control.stabilizer import StabilizerGains
+    from robot_ctrl.control.controllers.stabilizer import StabilizerGains
     from robot_ctrl.wpg.params import WalkParams
 
     try:
@@ -89,8 +89,8 @@ def check_controller_config(robot) -> None:
 
 def check_real_robot(args: argparse.Namespace, disturbances, robot) -> None:
     """Refuse what a scenario on real servos cannot do, before anything moves."""
-    from robot_ctrl.hw.bus_config import load_bus_config, shipped_bus_configs
-    from robot_ctrl.hw.disturbances import Disturbances
+    from robot_ctrl.buses.bus_config import load_bus_config, shipped_bus_configs
+    from robot_ctrl.sim.disturbances import Disturbances
 
     if disturbances != Disturbances():
         raise ConfigError(f"--hw {args.hw}: --push, --mass-scale, --friction-scale, --latency-ms, --sensor-noise and "
@@ -128,7 +128,7 @@ def on_the_robot(args: argparse.Namespace, robot, hw, control_dt: float):
 def real_servo_pacer(kind: HardwareKind, control_dt: float):
     """The pacer of a loop on real servos (real-time scheduling asked for); None for a simulated
     robot, which waits for its controller."""
-    from robot_ctrl.control.pacer import Pacer
+    from robot_ctrl.control.loop.pacer import Pacer
 
     if not kind.real:
         return None
@@ -139,7 +139,7 @@ def real_servo_pacer(kind: HardwareKind, control_dt: float):
 
 def tick_log_recorders(args: argparse.Namespace, robot, hw, control_dt: float, pacer=None):
     """The run's tick log (``--log FILE``) as extra recorders, closed with the run."""
-    from robot_ctrl.eval.tick_log import open_tick_log
+    from robot_ctrl.eval.recording.tick_log import open_tick_log
 
     return open_tick_log(args.log, robot, hw, control_dt, pacer)
 

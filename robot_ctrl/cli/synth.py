@@ -77,7 +77,11 @@ def _synth_quality(args: argparse.Namespace) -> int:
 
 
 def _synth_transition(args: argparse.Namespace) -> int:
-    from robot_ctrl.eval.transition_postures import plot_transition_postures, transition_postures, transition_summary
+    from robot_ctrl.eval.reports.transition_postures import (
+        plot_transition_postures,
+        transition_postures,
+        transition_summary,
+    )
     from robot_ctrl.synthesis.step_planning import MAX_GOAL_DISTANCE
 
     try:
@@ -115,7 +119,7 @@ def _synth_demos(args: argparse.Namespace) -> int:
     robot = load_robot(args.robot)
     robot.config.require_reach("synth-demos")
     if args.from_physics:
-        from robot_ctrl.eval.feasible_demonstrations import record_feasible_set
+        from robot_ctrl.eval.campaigns.feasible_demonstrations import record_feasible_set
 
         check_ranges("synth-demos", args)
         source = args.source or kinematic_dataset_path(robot.name)

@@ -10,7 +10,7 @@ from robot_ctrl.robot.config import ConfigError, available_robots
 
 
 def _report(args: argparse.Namespace) -> int:
-    from robot_ctrl.eval.html_report import render_report
+    from robot_ctrl.eval.reports.html_report import render_report
 
     try:
         path = render_report(args.dir)
@@ -23,9 +23,9 @@ def _report(args: argparse.Namespace) -> int:
 def _log_command(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from robot_ctrl.eval.html_report import render_report
-    from robot_ctrl.eval.report_file import write_report
-    from robot_ctrl.eval.tick_log import log_report, log_series, read_tick_log
+    from robot_ctrl.eval.recording.report_file import write_report
+    from robot_ctrl.eval.recording.tick_log import log_report, log_series, read_tick_log
+    from robot_ctrl.eval.reports.html_report import render_report
 
     if not args.file.is_file():
         raise ConfigError(f"log: {args.file} does not exist")

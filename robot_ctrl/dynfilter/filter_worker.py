@@ -23,8 +23,8 @@ import numpy as np
 
 from robot_ctrl.dynfilter.dynamic_filter import ComOffset, DynamicFilter, filter_request
 from robot_ctrl.dynfilter.preview_correction import PreviewCorrection
-from robot_ctrl.hw.parent_death import die_with_parent
 from robot_ctrl.modes import FilterMode
+from robot_ctrl.parent_death import die_with_parent
 from robot_ctrl.robot.model import RobotModel
 from robot_ctrl.wpg.plan import PlanPreview
 

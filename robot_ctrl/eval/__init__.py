@@ -1,6 +1,7 @@
-"""Evaluation: fall detection and run metrics computed from what the hardware adapter reads."""
+"""Evaluation: what a run is judged by, measured in the simulation.
 
-from robot_ctrl.eval.fall import FallCriterion
-from robot_ctrl.eval.run_metrics import RunMetrics
-
-__all__ = ["FallCriterion", "RunMetrics"]
+- ``recording``: recorders the control loop calls each tick (falls, torques, GRF, the walk's and the
+  drawer's measurements, the per-tick log) and the report.json they give.
+- ``reports``: the HTML report of a run and of campaigns, and their figures.
+- ``campaigns``: many trials run locally or on Ray, resumably, and their summaries.
+"""

@@ -1,20 +1,11 @@
-"""The ground floor every layer may import: planar frames, support polygons, gravity,
-minimum-jerk interpolation. Imports nothing from robot_ctrl."""
+"""The ground floor every layer may import: planar frames, sides, support polygons, gravity,
+minimum-jerk interpolation, the drawer task's geometry. Imports nothing from robot_ctrl.
+"""
 
-from robot_ctrl.geometry.frames import (
-                                        GRAVITY,
-                                        SIDES,
-                                        PlanarMove,
-                                        base_pose_xy_yaw,
-                                        mean_yaw,
-                                        other,
-                                        relative_pose,
-                                        rotation,
-                                        wrap_angle,
-                                        yaw_of,
-)
-from robot_ctrl.geometry.minimum_jerk import interpolate, minimum_jerk
-from robot_ctrl.geometry.support_polygon import SupportPolygon, convex_hull, sole_corners
+from robot_ctrl.lazy_exports import lazy_exports
 
-__all__ = ["GRAVITY", "SIDES", "PlanarMove", "SupportPolygon", "base_pose_xy_yaw", "convex_hull", "interpolate",
-           "mean_yaw", "minimum_jerk", "other", "relative_pose", "rotation", "sole_corners", "wrap_angle", "yaw_of"]
+__all__, __getattr__, __dir__ = lazy_exports(__name__, {
+    "frames": ["GRAVITY", "SIDES", "Side", "PlanarMove", "base_pose_xy_yaw", "left_sign", "mean_yaw", "other", "relative_pose", "rotation", "wrap_angle", "yaw_of"],
+    "interpolation": ["interpolate", "minimum_jerk"],
+    "support_polygon": ["SupportPolygon", "convex_hull", "sole_corners"],
+})

@@ -8,15 +8,25 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Literal
 
 import numpy as np
 
-SIDES = ("left", "right")
+#: A side of a biped (a foot, a hand, a gripper). Plain strings, so that they name MuJoCo bodies,
+#: config keys and report fields as they are.
+Side = Literal["left", "right"]
+SIDES: tuple[Side, Side] = ("left", "right")
 GRAVITY = 9.81  # [m/s²], magnitude, along −z
 
 
-def other(side: str) -> str:
+def other(side: Side) -> Side:
+    """The other side: ``other("left") == "right"``."""
     return "right" if side == "left" else "left"
+
+
+def left_sign(side: Side) -> float:
+    """+1 for the left side, −1 for the right: the sign of its lateral (y) offset in the body frame."""
+    return 1.0 if side == "left" else -1.0
 
 
 def wrap_angle(angle: float) -> float:

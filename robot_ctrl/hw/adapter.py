@@ -34,6 +34,12 @@ class HardwareFault(RuntimeError):
 
 
 class HardwareAdapter(ABC):
+    """The interface every hardware backend implements (after ros2_control): a lifecycle
+    (``configure``, ``activate``, ``deactivate``, ``estop``, ``reset``, ``close``; module docstring),
+    ``read() -> JointState`` and ``write(JointCommand)`` for ``nj`` joints in the robot config's
+    order, SI units. A backend implements the ``_on_*`` hooks, ``_read`` and ``_write``; a backend
+    call that raises leaves the adapter in ``FAULT``."""
+
     def __init__(self, nj: int):
         self.nj = nj
         self._state = S.UNCONFIGURED

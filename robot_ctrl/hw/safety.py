@@ -102,6 +102,10 @@ WITHIN_EFFORT_MARGIN = 1e-9
 
 
 class SafetyLayer(HardwareAdapter):
+    """Wraps any backend so that only safe commands reach it (module docstring: the checks,
+    their order, damping on a fault, the watchdog); an adapter itself. The last line of defence: a
+    nominal run that needs it is a controller's bug. ``SafetyLayer(backend, SafetyLimits.from_robot(robot, dt))``."""
+
     def __init__(self, backend: HardwareAdapter, limits: SafetyLimits,
                  clock: Callable[[], float] | None = time.monotonic):
         """``clock``: what the watchdog and staleness checks measure time with, the wall clock by

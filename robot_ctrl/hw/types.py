@@ -19,6 +19,10 @@ SCENE_CHANNELS = 8
 
 
 class LifecycleState(enum.Enum):
+    """Where a hardware adapter is in its lifecycle: ``UNCONFIGURED`` → ``INACTIVE`` →
+    ``ACTIVE``; ``FAULT`` after a hardware fault, ``ESTOP`` after an emergency stop (both need
+    ``reset``). Only ``ACTIVE`` accepts commands."""
+
     UNCONFIGURED = "unconfigured"
     INACTIVE = "inactive"
     ACTIVE = "active"
@@ -54,7 +58,7 @@ class JointState:
     - ``temperature``: per joint, the servo's reported temperature [°C] (bus backends).
     - ``scene``: readings of the simulated scene's props, the simulation's ground truth for reports
       (never for control): at most ``SCENE_CHANNELS`` numbers, named by the prop that reports them
-      (e.g. ``geometry.drawer.DRAWER_READINGS``).
+      (e.g. ``geometry.drawer_geometry.DRAWER_READINGS``).
     """
 
     t: float

@@ -1,6 +1,9 @@
-"""Robot layer: configs, description files, Pinocchio model and the MuJoCo conversion."""
+"""Robot layer: configs, description files, Pinocchio model and the MuJoCo conversion.
+"""
 
-from robot_ctrl.robot.config import ConfigError, RobotConfig, available_robots, load_robot_config
-from robot_ctrl.robot.model import RobotModel, load_robot
+from robot_ctrl.lazy_exports import lazy_exports
 
-__all__ = ["ConfigError", "RobotConfig", "RobotModel", "available_robots", "load_robot", "load_robot_config"]
+__all__, __getattr__, __dir__ = lazy_exports(__name__, {
+    "config": ["ConfigError", "RobotConfig", "available_robots", "load_robot_config"],
+    "model": ["RobotModel", "load_robot"],
+})

@@ -14,7 +14,8 @@ from typing import Any, Mapping
 import yaml
 
 from robot_ctrl import ROOT
-from robot_ctrl.geometry.drawer import DrawerGeometry
+from robot_ctrl.geometry import Side
+from robot_ctrl.geometry.drawer_geometry import DrawerGeometry
 from robot_ctrl.modes import FilterMode
 
 CONFIG_DIR = ROOT / "configs" / "robots"
@@ -87,7 +88,7 @@ class Grippers:
     closes_toward: Mapping[str, str]
     opening: float
 
-    def closing_sign(self, side: str) -> float:
+    def closing_sign(self, side: Side) -> float:
         """+1 where the gripper closes toward its upper limit, -1 toward its lower."""
         return 1.0 if self.closes_toward[side] == "upper" else -1.0
 
@@ -123,7 +124,7 @@ class RobotConfig:
     servo_torque_fraction: float | None  # of the effort limit an upper-body command may demand; None: unbounded
     timestep: float  # [s] physics step of the simulation backend
     walking: Mapping[str, Any]  # WalkParams fields this robot's size calls for (robot_ctrl.wpg.params)
-    stabilizer: Mapping[str, Any]  # StabilizerGains fields this robot calls for (robot_ctrl.control.stabilizer)
+    stabilizer: Mapping[str, Any]  # StabilizerGains fields this robot calls for (robot_ctrl.control.controllers.stabilizer)
     gait_swing: tuple[GaitSwing, ...]  # the walking demonstrations' upper-body motion
     walking_speed: float = DEFAULT_WALKING_SPEED  # [m/s] the walk's default speed (``walking.speed``)
     grippers: Grippers = DEFAULT_GRIPPERS  # how the walk-and-reach task's grippers close (``grasp:``)
@@ -147,7 +148,7 @@ class RobotConfig:
         out.update(torso=self.torso, waist=self.waist)
         return out
 
-    def joint_index(self, role: str, side: str) -> int:
+    def joint_index(self, role: str, side: Side) -> int:
         """Index (in ``joint_names``) of the joint with ``role`` on ``side``, e.g. the left gripper."""
         return self.joint_names.index(self.joint_roles[role][side])
 

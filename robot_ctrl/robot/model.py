@@ -25,6 +25,10 @@ from robot_ctrl.robot.mjcf import cached_scene_mjcf
 
 @dataclass(frozen=True, eq=False)
 class RobotModel:
+    """A robot, immutable: its config, its description files, the Pinocchio model (free flyer,
+    Pinocchio's joint order), the index of each actuated joint in q and v, the frames of its roles,
+    its half-sitting posture, gains and limits, and its cached MuJoCo scene. ``load_robot("talos")``."""
+
     config: RobotConfig
     files: RobotFiles
     pin: pin.Model  # free-flyer model, armature set from the config

@@ -8,8 +8,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable, TypeVar
 
-from robot_ctrl.control.base_estimator import BaseEstimator, EstimatedBaseController
-from robot_ctrl.eval.recorders import BaseEstimateError
+from robot_ctrl.control.estimation.base_estimator import BaseEstimator, EstimatedBaseController
+from robot_ctrl.eval.recording.recorders import BaseEstimateError
 from robot_ctrl.geometry import base_pose_xy_yaw
 from robot_ctrl.hw.types import JointCommand, JointState
 from robot_ctrl.modes import BaseState

@@ -11,11 +11,11 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from robot_ctrl.control.loop import ControlLoop
-from robot_ctrl.control.pacer import Pacer
-from robot_ctrl.control.start_sequence import StartParams, StartRefused, StartSequence, TrackingFault
-from robot_ctrl.control.static_feedforward import upper_body_gravity
-from robot_ctrl.eval.recorders import HeldFor, TimeLimit
+from robot_ctrl.control.controllers.static_feedforward import upper_body_gravity
+from robot_ctrl.control.loop.control_loop import ControlLoop
+from robot_ctrl.control.loop.pacer import Pacer
+from robot_ctrl.control.loop.start_sequence import StartParams, StartRefused, StartSequence, TrackingFault
+from robot_ctrl.eval.recording.recorders import HeldFor, TimeLimit
 from robot_ctrl.hw.adapter import HardwareFault
 from robot_ctrl.hw.safety import SafetyLayer
 from robot_ctrl.robot.model import RobotModel

@@ -2,7 +2,7 @@
 drawer open with the left hand and reach the object with the right, the whole pipeline at 200 Hz:
 synthesis → WPG → dynamic filter → stack-of-tasks IK → hardware, in MuJoCo with a real drawer. With
 ``DrawerMethod.NAIVE`` the thesis's naive baseline does the task instead: the walking controller
-walks in, then learned joint angles are played on the servos (``control/naive_commander.py``).
+walks in, then learned joint angles are played on the servos (``control/commanders/naive_commander.py``).
 
 Poses in the report are in the start frame (the base's pose at the start, on the floor).
 """
@@ -12,25 +12,25 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Callable, Sequence
 
-from robot_ctrl.control.drawer_targets import DrawerTargets
-from robot_ctrl.control.joint_playback import JointPlayback
-from robot_ctrl.control.naive_commander import NaiveCommander
-from robot_ctrl.control.pacer import Pacer
-from robot_ctrl.control.walk_reach_commander import WalkReachCommander
-from robot_ctrl.control.walking_controller import WalkingController, WalkingOptions
-from robot_ctrl.eval.drawer_recorder import DrawerRecorder
-from robot_ctrl.eval.push_capture import PushCapture
-from robot_ctrl.eval.recorders import HeldFor, ProgressBar, TimeLimit
-from robot_ctrl.eval.report_file import write_report
-from robot_ctrl.eval.walk_log import WalkLog
-from robot_ctrl.eval.walk_recorder import WalkRecorder
+from robot_ctrl.control.commanders.drawer_targets import DrawerTargets
+from robot_ctrl.control.commanders.naive_commander import NaiveCommander
+from robot_ctrl.control.commanders.walk_reach_commander import WalkReachCommander
+from robot_ctrl.control.controllers.joint_playback import JointPlayback
+from robot_ctrl.control.controllers.walking_controller import WalkingController, WalkingOptions
+from robot_ctrl.control.loop.pacer import Pacer
+from robot_ctrl.eval.recording.drawer_recorder import DrawerRecorder
+from robot_ctrl.eval.recording.push_capture import PushCapture
+from robot_ctrl.eval.recording.recorders import HeldFor, ProgressBar, TimeLimit
+from robot_ctrl.eval.recording.report_file import write_report
+from robot_ctrl.eval.recording.walk_log import WalkLog
+from robot_ctrl.eval.recording.walk_recorder import WalkRecorder
 from robot_ctrl.geometry import GRAVITY, base_pose_xy_yaw
-from robot_ctrl.hw.disturbances import Disturbances
 from robot_ctrl.hw.safety import SafetyLayer
 from robot_ctrl.modes import DrawerMethod
 from robot_ctrl.robot.model import RobotModel
 from robot_ctrl.scenarios.drawer_task import DrawerTask
 from robot_ctrl.scenarios.robot_run import start_run
+from robot_ctrl.sim.disturbances import Disturbances
 from robot_ctrl.sot.whole_body_ik import TRUNK_POSTURE_FACTOR
 from robot_ctrl.synthesis.primitives import WalkReachPrimitives
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from robot_ctrl.geometry.drawer import SLOTS
+from robot_ctrl.geometry.drawer_geometry import SLOTS
 from robot_ctrl.modes import BaseState, DrawerMethod, FilterMode, SpeedClass
 from robot_ctrl.synthesis.synthesizer import GoalJump
 
@@ -17,6 +17,11 @@ WALK_IN = 0.30  # [m] most the pelvis advances before the synthesis starts (the 
 
 @dataclass(frozen=True)
 class DrawerTask:
+    """What a user asks of the drawer scenario: the cabinet's distance [m] ahead of the start
+    pelvis, the slot holding the object, goal jumps, speed class, dynamic filter mode, control period
+    [s], how the base is seen and which method drives the robot. ``run_drawer(robot, hw,
+    DrawerTask(2.0, "front_left"), primitives)``; :meth:`check` refuses what cannot be run."""
+
     distance: float  # [m] closed front panel from the start pelvis, along the start heading
     slot: str = "front_left"
     jumps: tuple[GoalJump, ...] = ()

@@ -1,5 +1,5 @@
 """Group walk: several robots in one MuJoCo world, each with its own walking controller, walking
-side by side with their gaits coupled (:class:`~robot_ctrl.control.coupling_commander.CouplingCommander`).
+side by side with their gaits coupled (:class:`~robot_ctrl.control.commanders.coupling_commander.CouplingCommander`).
 
 The robots stand in a row along the world y axis, ``spacing`` metres apart, facing +x, and start
 walking after random delays in [0, one gait cycle), so their step phases start at random. The
@@ -15,16 +15,16 @@ from typing import Callable
 
 import numpy as np
 
-from robot_ctrl.control.coupling_commander import CouplingCommander
-from robot_ctrl.control.loop import ControlLoop
-from robot_ctrl.control.walking_controller import WalkingController, WalkingOptions
+from robot_ctrl.control.commanders.coupling_commander import CouplingCommander
+from robot_ctrl.control.controllers.walking_controller import WalkingController, WalkingOptions
+from robot_ctrl.control.loop.control_loop import ControlLoop
 from robot_ctrl.crowd.group_walk_settings import GroupWalk, certified_coupling
-from robot_ctrl.eval import FallCriterion, RunMetrics
-from robot_ctrl.eval.group_walk_report import TouchdownRecorder, group_walk_report
-from robot_ctrl.eval.recorders import Fell, MetricsRecorder, ProgressBar, TimeLimit
-from robot_ctrl.hw.disturbances import Disturbances
-from robot_ctrl.hw.hardware import open_group_hardware
+from robot_ctrl.eval.recording import FallCriterion, RunMetrics
+from robot_ctrl.eval.recording.recorders import Fell, MetricsRecorder, ProgressBar, TimeLimit
+from robot_ctrl.eval.reports.group_walk_report import TouchdownRecorder, group_walk_report
 from robot_ctrl.robot.model import RobotModel
+from robot_ctrl.scenarios.hardware import open_group_hardware
+from robot_ctrl.sim.disturbances import Disturbances
 from robot_ctrl.wpg.params import WalkParams
 
 STAND_AFTER = 1.5  # [s] standing after the stop

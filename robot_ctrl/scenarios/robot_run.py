@@ -16,19 +16,19 @@ from typing import Callable, Sequence, TypeVar
 
 import numpy as np
 
-from robot_ctrl.control.loop import ControlLoop, LoopResult
-from robot_ctrl.control.pacer import Pacer
-from robot_ctrl.control.start_sequence import StartParams
-from robot_ctrl.eval import FallCriterion, RunMetrics
-from robot_ctrl.eval.recorders import Fell, MetricsRecorder, ProgressBar
+from robot_ctrl.control.loop.control_loop import ControlLoop, LoopResult
+from robot_ctrl.control.loop.pacer import Pacer
+from robot_ctrl.control.loop.start_sequence import StartParams
+from robot_ctrl.eval.recording import FallCriterion, RunMetrics
+from robot_ctrl.eval.recording.recorders import Fell, MetricsRecorder, ProgressBar
 from robot_ctrl.hw.adapter import HardwareFault
-from robot_ctrl.hw.disturbances import Disturbances
 from robot_ctrl.hw.safety import SafetyLayer
 from robot_ctrl.hw.types import JointState
 from robot_ctrl.modes import BaseState
 from robot_ctrl.robot.model import RobotModel
 from robot_ctrl.scenarios.base_view import BaseView, seeing_base
 from robot_ctrl.scenarios.bringup import move
+from robot_ctrl.sim.disturbances import Disturbances
 
 C = TypeVar("C")
 

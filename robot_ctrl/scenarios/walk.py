@@ -11,22 +11,22 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Sequence
 
-from robot_ctrl.control.arm_swing import arm_motion
-from robot_ctrl.control.pacer import Pacer
-from robot_ctrl.control.path_commander import PathCommander
-from robot_ctrl.control.path_follower import WalkGoal
-from robot_ctrl.control.walking_controller import WalkingController, WalkingOptions
-from robot_ctrl.eval.push_capture import PushCapture
-from robot_ctrl.eval.recorders import HeldFor, ProgressBar, TimeLimit
-from robot_ctrl.eval.report_file import write_report
-from robot_ctrl.eval.walk_log import GRF_LIMIT_RATIO, WalkLog
-from robot_ctrl.eval.walk_recorder import WalkRecorder
+from robot_ctrl.control.commanders.path_commander import PathCommander
+from robot_ctrl.control.commanders.path_follower import WalkGoal
+from robot_ctrl.control.controllers.arm_swing import arm_motion
+from robot_ctrl.control.controllers.walking_controller import WalkingController, WalkingOptions
+from robot_ctrl.control.loop.pacer import Pacer
+from robot_ctrl.eval.recording.push_capture import PushCapture
+from robot_ctrl.eval.recording.recorders import HeldFor, ProgressBar, TimeLimit
+from robot_ctrl.eval.recording.report_file import write_report
+from robot_ctrl.eval.recording.walk_log import GRF_LIMIT_RATIO, WalkLog
+from robot_ctrl.eval.recording.walk_recorder import WalkRecorder
 from robot_ctrl.geometry import GRAVITY, base_pose_xy_yaw
-from robot_ctrl.hw.disturbances import Disturbances
 from robot_ctrl.hw.safety import SafetyLayer
 from robot_ctrl.modes import ArmMotion, BaseState, FilterMode
 from robot_ctrl.robot.model import RobotModel
 from robot_ctrl.scenarios.robot_run import start_run
+from robot_ctrl.sim.disturbances import Disturbances
 
 STAND_AFTER = 2.0  # [s] standing after the stop
 
@@ -46,7 +46,7 @@ class WalkSettings:
 def run_walk(robot: RobotModel, hw: SafetyLayer, goal: WalkGoal, settings: WalkSettings = WalkSettings(), *,
              out_dir: Path | None = None, log: Callable[[str], None] = print, progress: bool = False,
              disturbances: Disturbances = Disturbances(), recorders: Sequence = (), pacer: Pacer | None = None) -> dict:
-    """Walk ``goal`` on ``hw`` (from :func:`robot_ctrl.hw.hardware.open_hardware`, which applied
+    """Walk ``goal`` on ``hw`` (from :func:`robot_ctrl.scenarios.hardware.open_hardware`, which applied
     ``disturbances``: the report lists them) and report; ``recorders`` (a tick log) see every tick;
     ``pacer`` keeps a real robot's ticks on time."""
     s, options = settings, settings.controller

@@ -61,6 +61,11 @@ START_TOLERANCE = 0.01  # [rad]
 
 
 class WholeBodyIK:
+    """The walking and balance controllers' stack of tasks on one robot: feet, then CoM and
+    trunk, then hands and posture, in strict priority with joint limits at every level. Targets are
+    set on its tasks (world frame, SI units); ``prepare`` then ``finish`` integrate one tick
+    (docs/ik.md). ``WholeBodyIK(robot, q0)``."""
+
     def __init__(self, robot: RobotModel, q0: np.ndarray, gain: float = 40.0, posture_weight: float = 0.03,
                  trunk_weight: float = 1.0, balance_with_arms: bool = True, acceleration_limits: bool = True):
         """``trunk_weight``: the torso joints' posture weight relative to the other joints'.

@@ -32,6 +32,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from robot_ctrl.geometry import other
+
 Box = tuple[np.ndarray, np.ndarray]  # (low corner (2,), high corner (2,)) [m]
 
 
@@ -65,7 +67,7 @@ def capture_box(model: CaptureModel, stance: str, wait: float) -> Box:
     from which at most ``model.steps`` steps capture the robot, when the swing foot can land
     ``wait`` seconds from now at the earliest (:math:`C_N` of (2))."""
     half = (model.sole[0] / 2, model.sole[1] / 2)
-    swing = "left" if stance == "right" else "right"
+    swing = other(stance)
     reach_y = {"right": model.reach_y, "left": (-model.reach_y[1], -model.reach_y[0])}  # by stance side
     x = y = None
     for k in range(model.steps, -1, -1):  # from the last step back to the stance now: C_0, C_1, … C_N

@@ -7,14 +7,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robot_ctrl.geometry import PlanarMove, other, rotation
+from robot_ctrl.geometry import PlanarMove, Side, left_sign, other, rotation
 
 
 @dataclass(frozen=True)
 class Footstep:
     """A sole frame on the floor: position (x, y) [m] and yaw [rad] in the world frame."""
 
-    side: str
+    side: Side
     x: float
     y: float
     yaw: float
@@ -33,7 +33,7 @@ class Footstep:
 class FootRef:
     """A foot whose position is ``offset + S F`` (S: 2×4 selection of the footstep variables)."""
 
-    side: str
+    side: Side
     yaw: float
     offset: np.ndarray  # (2,)
     S: np.ndarray  # (2, 4)
@@ -43,14 +43,14 @@ class FootRef:
         return cls(step.side, step.yaw, step.xy, np.zeros((2, 4)))
 
     @classmethod
-    def variable(cls, index: int, side: str, yaw: float) -> "FootRef":
+    def variable(cls, index: int, side: Side, yaw: float) -> "FootRef":
         S = np.zeros((2, 4))
         S[0, 2 * index] = S[1, 2 * index + 1] = 1.0
         return cls(side, yaw, np.zeros(2), S)
 
     def beside(self, width: float) -> "FootRef":
         """The other foot placed parallel to this one, ``width`` apart (feet side by side)."""
-        sign = -1.0 if self.side == "left" else 1.0
+        sign = -left_sign(self.side)
         return FootRef(other(self.side), self.yaw, self.offset + rotation(self.yaw) @ [0.0, sign * width], self.S)
 
     def position(self, F: np.ndarray) -> np.ndarray:

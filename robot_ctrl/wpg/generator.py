@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robot_ctrl.geometry import GRAVITY, PlanarMove, mean_yaw, other, rotation, wrap_angle
+from robot_ctrl.geometry import GRAVITY, PlanarMove, Side, left_sign, mean_yaw, other, rotation, wrap_angle
 from robot_ctrl.wpg.footstep import FootRef, Footstep
 from robot_ctrl.wpg.lipm import com_at, dcm, natural_frequency
 from robot_ctrl.wpg.mpc import MpcInfeasible, MpcProblem, MpcSolution, Reach, SampleSupports, WalkingMPC
@@ -84,7 +84,7 @@ class WalkingPatternGenerator:
         self.phase_time = 0.0
         self.stance = "right"
         self.steps_to_stop = 0  # landings left before standing (0: not stopping)
-        self.stop_feet: dict[str, Footstep] | None = None  # where the feet must end when stopping at a pose
+        self.stop_feet: dict[Side, Footstep] | None = None  # where the feet must end when stopping at a pose
         self.velocity = np.zeros(3)  # (vx, vy, ωz) in the heading frame
         self.swing: SwingTrajectory | None = None
         self.settle_from: FootRef | None = None  # ZMP start of the last transfer to standing
@@ -203,7 +203,7 @@ class WalkingPatternGenerator:
             index += 1
         return segments, landings
 
-    def _toward_goal(self, previous: FootRef, side: str) -> Footstep:
+    def _toward_goal(self, previous: FootRef, side: Side) -> Footstep:
         """The stop footstep of ``side``, clamped into the reach region (and yaw step) of ``previous``."""
         goal = self.stop_feet[side]
         yaw = previous.yaw + min(max(wrap_angle(goal.yaw - previous.yaw), -self.p.max_yaw_step), self.p.max_yaw_step)
@@ -244,7 +244,7 @@ class WalkingPatternGenerator:
             # Footstep reference: forward, each step advances vx T_step; sideways the feet cannot cross
             # inside step_width, so the leading foot takes the whole 2 vy T_step and the trailing one
             # comes back to step_width.
-            sign = 1.0 if foot.side == "left" else -1.0
+            sign = left_sign(foot.side)
             vx, vy = self.velocity[:2]
             period = p.step_period * self.time_scale
             lateral = sign * p.step_width + (2.0 * vy * period if sign * vy > 0 else 0.0)
@@ -256,7 +256,7 @@ class WalkingPatternGenerator:
         return MpcProblem(self.com_x.copy(), self.com_y.copy(), velocity, supports, reach, fixed, nominal,
                           self.sample_duration)
 
-    def _reach_box(self, side: str) -> tuple[float, float, float, float]:
+    def _reach_box(self, side: Side) -> tuple[float, float, float, float]:
         w, (lo, hi) = self.p.step_width, self.p.reach_y
         y = (w + lo, w + hi) if side == "left" else (-w - hi, -w - lo)
         return (*self.p.reach_x, *y)

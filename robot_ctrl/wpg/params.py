@@ -23,6 +23,10 @@ MEASURED_TOLERANCE = 0.01
 
 @dataclass(frozen=True)
 class WalkParams:
+    """The walking pattern generator's parameters, immutable: MPC sample time [s] and horizon
+    (samples), step timing [s], the cart-table model's CoM height and the soles' size [m] (derived
+    from the robot when unset), reach, weights and the QP solver. ``WalkParams(single_support=0.5)``."""
+
     sample_time: float = 0.1  # [s] MPC sampling T
     horizon: int = 16  # samples (1.6 s)
     single_support: float = 0.7  # [s]

@@ -9,7 +9,7 @@ from enum import Enum
 
 import numpy as np
 
-from robot_ctrl.geometry import SIDES
+from robot_ctrl.geometry import SIDES, Side
 from robot_ctrl.wpg.footstep import Footstep
 
 
@@ -48,8 +48,8 @@ class WalkReference:
     com_velocity: np.ndarray  # (2,) [m/s]
     com_acceleration: np.ndarray  # (2,) [m/s²]
     zmp: np.ndarray  # (2,) ZMP of the cart-table model [m]
-    feet: dict[str, SolePlan]  # side -> the sole's plan
-    in_contact: dict[str, bool]
+    feet: dict[Side, SolePlan]  # side -> the sole's plan
+    in_contact: dict[Side, bool]
     phase: GaitPhase
 
 
@@ -60,7 +60,7 @@ class PreviewSample:
     t: float  # [s] after the start of the solved sample (physical time)
     com: np.ndarray  # (2,) [m]
     zmp: np.ndarray  # (2,) cart-table ZMP [m]
-    feet: dict[str, SolePlan]  # side -> the sole's pose (its velocity is not previewed)
+    feet: dict[Side, SolePlan]  # side -> the sole's pose (its velocity is not previewed)
     single_support: bool
 
 

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robot_ctrl.geometry import rotation, wrap_angle
+from robot_ctrl.geometry import Side, rotation, wrap_angle
 from robot_ctrl.geometry.support_polygon import sole_halfplanes
 from robot_ctrl.kernels import FLOAT, INDICES, INT, STACK, VECTOR, kernel
 from robot_ctrl.wpg.footstep import FootRef, Footstep
@@ -44,7 +44,7 @@ def segment_at(segments: list[Segment], t: float) -> tuple[int, float]:
     raise ValueError("no segments")
 
 
-def swing_point(segments: list[Segment], k: int, side: str, F: np.ndarray, s: float, apex: float,
+def swing_point(segments: list[Segment], k: int, side: Side, F: np.ndarray, s: float, apex: float,
                 fallback: Footstep) -> tuple[np.ndarray, float]:
     """Swing foot ``side`` at fraction ``s`` of single-support segment ``k``: from where it stood in
     the segment before to where it lands in the segment after (min-jerk in the plane and yaw,

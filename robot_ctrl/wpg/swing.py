@@ -9,10 +9,21 @@ vertical velocity at lift-off and touch-down. The sole stays flat. World frame, 
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from robot_ctrl.geometry import PlanarMove, wrap_angle
 from robot_ctrl.wpg.footstep import Footstep
+
+
+class SwingPoint(NamedTuple):
+    """A swinging foot's sole at one instant, world frame."""
+
+    position: np.ndarray  # (3,) [m]
+    yaw: float  # [rad]
+    velocity: np.ndarray  # (3,) [m/s]
+    yaw_rate: float  # [rad/s]
 
 
 def quintic_coefficients(duration: float, p0: np.ndarray, v0: np.ndarray, a0: np.ndarray, p1: np.ndarray) -> np.ndarray:
@@ -67,11 +78,11 @@ class SwingTrajectory:
         self.lift = self.lift.moved(move)
         self.landing = self.landing.moved(move)
 
-    def at(self, t: float) -> tuple[np.ndarray, float, np.ndarray, float]:
-        """``(position (3,), yaw, linear velocity (3,), yaw rate)`` at ``t`` seconds into the swing."""
+    def at(self, t: float) -> SwingPoint:
+        """The sole at ``t`` seconds into the swing."""
         t = min(max(t, 0.0), self.duration)
         p, v, _ = _evaluate(self._c, t - self._t0)
         sigma = t / self.duration
         z = 16.0 * self.apex * sigma**2 * (1.0 - sigma) ** 2
         dz = 32.0 * self.apex * sigma * (1.0 - sigma) * (1.0 - 2.0 * sigma) / self.duration
-        return np.array([p[0], p[1], z]), float(p[2]), np.array([v[0], v[1], dz]), float(v[2])
+        return SwingPoint(np.array([p[0], p[1], z]), float(p[2]), np.array([v[0], v[1], dz]), float(v[2]))

@@ -1,0 +1,297 @@
+"""MitCanBackend: joints driven by MIT-style CAN servos (``mit_protocol``) over python-can.
+
+Lifecycle: ``configure`` opens one python-can bus per bus in the YAML and sets the drive-side
+timeout where the drive has one (Damiao: register TIMEOUT written and read back, so a dead host
+process leaves the motor disabled after the bus config's ``drive_timeout_s``; a drive that does
+not confirm it fails the configuration; a config with drives that have no such timeout is refused
+unless it states why they may be enabled, ``without_drive_timeout``); ``activate`` sends the
+enter-motor-mode frame to every motor and takes their replies as the first state; ``write`` sends
+one command frame per motor (joint side converted to motor side, see ``bus_config``); ``read``
+collects the replies that command caused (each motor answers every frame it receives) and
+returns the joint state; ``deactivate`` sends exit-motor-mode; ``estop`` sends damping commands
+(kp = 0, kd = ``kd_damping``, τ = 0) to every motor. ``zero_motor(joint)`` sends the set-zero frame
+(only on request: it redefines the encoder's zero).
+
+A motor bus carries joint data only. The base pose, IMU and foot force/torque readings of the
+JointState come from ``body_sensors`` (a callable returning a JointState whose body fields are
+used), which on a real robot is the IMU/force-sensor driver and in the emulator the simulation.
+
+Replies (the bus config's ``reply_timeout_s`` and ``max_missed_replies``): each tick waits at most
+``reply_timeout_s`` for one reply per motor. A motor that misses one keeps its last values
+(``missed`` counts its misses in a row, ``missing_replies`` all of them); one that misses more than
+``max_missed_replies`` in a row raises, and so does ``activate`` if a motor stays silent through
+as many enable frames (after disabling them all again). Frames still queued when a tick's commands
+go out came after their own tick's wait: they are dropped (``late_replies``), not read as this
+tick's. The state's time advances when any motor answered; when none did it
+stays, and the safety layer sees a stale state.
+
+Reply formats (``mit_protocol``, per motor model): 6-byte mini-cheetah replies carry no
+temperature or fault; CubeMars and Damiao 8-byte replies do. The state's ``temperature`` is
+reported when every motor's format carries one. A fault code, or a Damiao drive that says it is
+disabled while it should be enabled (its CAN timeout expired, say), raises naming the joint.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Callable
+
+import can
+import numpy as np
+
+from robot_ctrl.buses.bus_config import BusConfig
+from robot_ctrl.buses.mit_protocol import (
+    DISABLE,
+    ENABLE,
+    HOST_ID,
+    PARAM_CAN_ID,
+    PARAM_READ,
+    PARAM_WRITE,
+    SET_ZERO,
+    TIMEOUT_REGISTER,
+    TIMEOUT_UNIT,
+    MitRanges,
+    pack_command,
+    param_frame,
+    reply_motor_id,
+    unpack_param,
+    unpack_reply,
+)
+from robot_ctrl.hw.adapter import HardwareAdapter
+from robot_ctrl.hw.types import JointCommand, JointState
+from robot_ctrl.robot.config import ConfigError
+
+#: [s] Replies follow each other back to back once they come (0.13 ms per frame at 1 Mbit/s): after
+#: this long without one, the rest of the bus's motors missed theirs.
+REPLY_GAP = 0.002
+#: [s] how long ``configure`` waits for the drives to answer a register read or write
+PARAM_WAIT = 0.1
+
+
+class MitCanBackend(HardwareAdapter):
+    def __init__(self, config: BusConfig, kd_damping: np.ndarray, body_sensors: Callable[[], JointState] | None = None,
+                 clock: Callable[[], float] = time.monotonic):
+        if config.backend != "mit_can":
+            raise ValueError(f"{config.path.name} is a {config.backend!r} config, not mit_can")
+        super().__init__(len(config.motors))
+        self.config = config
+        self.kd_damping = np.asarray(kd_damping, dtype=float)
+        self.body_sensors = body_sensors
+        self.reply_timeout = config.reply_timeout
+        self.clock = clock
+        self.ranges = [MitRanges.from_dict(config.models[m.model]) for m in config.motors]
+        self.formats = [config.reply_format(m) for m in config.motors]
+        self._bus_format = {m.bus: f for m, f in zip(config.motors, self.formats)}  # one format per bus
+        self._index = {(m.bus, m.id): i for i, m in enumerate(config.motors)}
+        holding = [m.joint for m, f in zip(config.motors, self.formats) if f != "damiao"]
+        if holding and config.without_drive_timeout is None:
+            raise ConfigError(f"{config.path.name}: {len(holding)} drives have no command timeout of their own "
+                              f"({holding[0]}{', ...' if len(holding) > 1 else ''}): a host that dies leaves them on "
+                              "their last stiff command. Use drives with one (reply: damiao, drive_timeout_s), or "
+                              "state why they may be enabled: without_drive_timeout: \"...\"")
+        self._buses: dict[str, can.BusABC] = {}
+        self._p = np.zeros(self.nj)  # motor side
+        self._v = np.zeros(self.nj)
+        self._t = np.zeros(self.nj)
+        self._temperature = np.full(self.nj, np.nan)  # [°C] where the format reports it
+        self._faults: dict[int, str] = {}
+        self._time = None
+        self._t0 = 0.0
+        self._body: JointState | None = None
+
+    # Lifecycle hooks ------------------------------------------------------------------------------
+    def _on_configure(self) -> None:
+        self._t0 = self.clock()  # the state's time counts from here
+        for name, options in self.config.buses.items():
+            self._buses[name] = can.Bus(**options)
+        self._set_drive_timeouts()
+
+    @property
+    def drive_timeout_joints(self) -> tuple[str, ...]:
+        """Joints whose drive disables itself when the host stops sending (Damiao: ``drive_timeout_s``)."""
+        return tuple(m.joint for m, f in zip(self.config.motors, self.formats) if f == "damiao")
+
+    @property
+    def without_drive_timeout(self) -> str | None:
+        return self.config.without_drive_timeout
+
+    def _set_drive_timeouts(self) -> None:
+        """Write the Damiao drives' TIMEOUT register and read it back; fail naming the drives that
+        did not confirm it."""
+        motors = [i for i, f in enumerate(self.formats) if f == "damiao"]
+        if not motors:
+            return
+        counts = round(self.config.drive_timeout / TIMEOUT_UNIT)
+        for op in (PARAM_WRITE, PARAM_READ):
+            for i in motors:
+                m = self.config.motors[i]
+                self._buses[m.bus].send(can.Message(arbitration_id=PARAM_CAN_ID, is_extended_id=False,
+                                                    data=param_frame(m.id, op, TIMEOUT_REGISTER, counts)))
+            confirmed = self._collect_params(motors, op, counts)
+        unconfirmed = np.zeros(self.nj, dtype=bool)
+        unconfirmed[[i for i in motors if i not in confirmed]] = True
+        if unconfirmed.any():
+            raise RuntimeError(f"{self._joints(unconfirmed)} did not confirm their CAN timeout "
+                               f"({self.config.drive_timeout} s): check their power, wiring and CAN ids")
+
+    def _collect_params(self, motors: list[int], op: int, value: int) -> set[int]:
+        """The motors among ``motors`` that answered register operation ``op`` with ``value``."""
+        confirmed: set[int] = set()
+        deadline = time.monotonic() + PARAM_WAIT
+        for name, bus in self._buses.items():
+            expected = {i for i in motors if self.config.motors[i].bus == name}
+            while expected - confirmed and (remaining := deadline - time.monotonic()) > 0:
+                msg = bus.recv(timeout=remaining)
+                answer = None if msg is None else unpack_param(bytes(msg.data))
+                if answer is None:
+                    continue
+                i = self._index.get((name, answer[0]))
+                if i in expected and answer[1:] == (op, TIMEOUT_REGISTER, value):
+                    confirmed.add(i)
+        return confirmed
+
+    def _on_activate(self) -> None:
+        self._drain()  # register answers still queued from configure
+        self._faults.clear()
+        silent = np.ones(self.nj, dtype=bool)
+        for _ in range(self.config.max_missed_replies + 1):  # a lost frame is asked again
+            self._broadcast(ENABLE, silent)
+            silent &= ~self._collect(silent, expect_enabled=True, gap=None)
+            if not silent.any():
+                break
+        if silent.any():
+            self._broadcast(DISABLE)
+            self._collect(gap=None)
+            raise RuntimeError(f"no reply from {self._joints(silent)} on enable: check their power, wiring and "
+                               "CAN ids (all motors disabled again)")
+        if self._faults:
+            self._broadcast(DISABLE)
+            self._collect(gap=None)
+            self._raise_faults()
+
+    def _on_deactivate(self) -> None:
+        self._broadcast(DISABLE)
+        self._collect(gap=None)
+        self._faults.clear()
+
+    def _on_disable(self) -> None:
+        self._on_deactivate()
+
+    def _on_estop(self) -> None:
+        if not self._buses:
+            return
+        q, _, _ = self.config.to_joint(self._p, self._v, self._t)
+        zero = np.zeros(self.nj)
+        self._send_commands(JointCommand(q=q, dq=zero, kp=zero, kd=self.kd_damping, tau_ff=zero), check=False)
+
+    def _on_close(self) -> None:
+        for bus in self._buses.values():
+            bus.shutdown()
+        self._buses.clear()
+
+    def zero_motor(self, joint: str) -> None:
+        """Make the motor of ``joint`` take its current position as zero (writes its encoder offset)."""
+        motor = next((m for m in self.config.motors if m.joint == joint), None)
+        if motor is None:
+            raise KeyError(f"{joint!r} is not in {self.config.path.name}")
+        self._buses[motor.bus].send(can.Message(arbitration_id=motor.id, data=SET_ZERO, is_extended_id=False))
+        self._collect()
+
+    # Read / write ---------------------------------------------------------------------------------
+    def _write(self, cmd: JointCommand) -> None:
+        self._send_commands(cmd)
+
+    def _read(self) -> JointState:
+        q, dq, tau = self.config.to_joint(self._p, self._v, self._t)
+        fields = self._body.body_fields() if self._body is not None else {}
+        temperature = self._temperature.copy() if np.isfinite(self._temperature).all() else None
+        return JointState(t=self._time if self._time is not None else 0.0, q=q, dq=dq, tau=tau,
+                          temperature=temperature, **fields)
+
+    def _send_commands(self, cmd: JointCommand, check: bool = True) -> None:
+        """Send ``cmd`` and take the replies; with ``check``, a drive fault, a bus-off or a motor
+        past ``max_missed_replies`` raises."""
+        self._drain()
+        off = [name for name, bus in self._buses.items() if bus.state is can.BusState.ERROR]
+        if off:
+            raise RuntimeError(f"CAN bus {', '.join(off)} is bus-off (error state): check wiring and termination; "
+                               "with restart-ms set the interface restarts itself")
+        p, v, kp, kd, t = self.config.to_motor(cmd.q, cmd.dq, cmd.kp, cmd.kd, cmd.tau_ff)
+        for i, m in enumerate(self.config.motors):
+            data = pack_command(p[i], v[i], kp[i], kd[i], t[i], self.ranges[i])
+            self._buses[m.bus].send(can.Message(arbitration_id=m.id, data=data, is_extended_id=False))
+        replied = self._collect(expect_enabled=True)
+        if not check:
+            self._faults.clear()
+            return
+        self._raise_faults()
+        self.missed = np.where(replied, 0, self.missed + 1)
+        lost = self.missed > self.config.max_missed_replies
+        if lost.any():
+            raise RuntimeError(f"{self._joints(lost)} missed more than {self.config.max_missed_replies} replies in a row")
+
+    def _raise_faults(self) -> None:
+        faults, self._faults = self._faults, {}
+        if faults:
+            raise RuntimeError("drive fault: " + ", ".join(f"{self.config.motors[i].joint}: {f}" for i, f in faults.items()))
+
+    def _drain(self) -> None:
+        """Drop the frames that came after the last wait ended: read as this tick's replies, they
+        would keep a motor a tick behind for good (``late_replies`` counts them)."""
+        for bus in self._buses.values():
+            while bus.recv(timeout=0.0) is not None:
+                self.late_replies += 1
+
+    def _joints(self, mask: np.ndarray) -> str:
+        return ", ".join(self.config.motors[i].joint for i in np.flatnonzero(mask))
+
+    def _broadcast(self, frame: bytes, motors: np.ndarray | None = None) -> None:
+        for i, m in enumerate(self.config.motors):
+            if motors is None or motors[i]:
+                self._buses[m.bus].send(can.Message(arbitration_id=m.id, data=frame, is_extended_id=False))
+
+    def _collect(self, asked: np.ndarray | None = None, expect_enabled: bool = False,
+                 gap: float | None = REPLY_GAP) -> np.ndarray:
+        """Receive one reply per motor ``asked`` (default all; or time out); if any came, advance
+        the state's time. Faults the replies report (and, with ``expect_enabled``, drives that say
+        they are disabled) are kept in ``_faults``. A bus's wait ends ``gap`` after its last reply
+        (a tick's replies come back to back); lifecycle calls (``gap=None``) wait the whole reply
+        timeout for every motor. Returns which motors replied."""
+        asked = np.ones(self.nj, dtype=bool) if asked is None else asked
+        replied = np.zeros(self.nj, dtype=bool)
+        deadline = self.clock() + self.reply_timeout
+        for name, bus in self._buses.items():
+            expected = sum(1 for i, m in enumerate(self.config.motors) if m.bus == name and asked[i])
+            got, bus_deadline = 0, deadline
+            while got < expected:
+                remaining = bus_deadline - self.clock()
+                msg = bus.recv(timeout=max(remaining, 0.0))  # past the deadline: what is already queued
+                if msg is None:
+                    break
+                bus_deadline = deadline if gap is None else min(deadline, self.clock() + gap)
+                if msg.is_error_frame:
+                    self.error_frames += 1
+                    continue
+                if msg.arbitration_id != HOST_ID or msg.is_extended_id:  # not a drive's reply to us
+                    self.foreign_frames += 1
+                    continue
+                data = bytes(msg.data)
+                fmt = self._bus_format.get(name, "mit6")
+                i = self._index.get((name, reply_motor_id(data, fmt)))
+                if i is None or replied[i]:
+                    continue
+                reply = unpack_reply(data, self.ranges[i], fmt)
+                self._p[i], self._v[i], self._t[i] = reply.position, reply.velocity, reply.torque
+                if reply.temperature is not None:
+                    self._temperature[i] = reply.temperature
+                if reply.fault is not None:
+                    self._faults[i] = reply.fault
+                elif expect_enabled and reply.enabled is False:
+                    self._faults[i] = "disabled itself"
+                replied[i] = True
+                got += 1
+        if replied.any():
+            self._body = self.body_sensors() if self.body_sensors is not None else None
+            self._time = self._body.t if self._body is not None else self.clock() - self._t0
+        self.missing_replies += int((asked & ~replied).sum())
+        return replied

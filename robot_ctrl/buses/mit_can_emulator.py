@@ -1,0 +1,199 @@
+"""MitCanEmulator: MIT-style CAN motors emulated on python-can buses, backed by a simulated robot.
+
+Each emulated motor listens on its bus for its CAN id and answers every frame with a reply in its
+model's format (``mit6``, ``cubemars`` or ``damiao``, see ``mit_protocol``), as the real drives do. Commands are decoded with the same protocol code a real motor would
+have to match, converted to the joint side with the bus config and, once every motor has received
+its command for the tick, applied together to the ``plant`` (any HardwareAdapter, normally the
+MuJoCo backend: hardware in the loop), which advances one control period. Lock-step: each motor
+answers its command after that step, with the state after it (a real drive answers at once with
+the state of that instant while its physics keeps running). A disabled motor (after 0xFD, before 0xFC) is limp: kp = kd = τ = 0.
+
+Every decoded command is kept in ``received`` (joint side, with the plant time) so tests can check
+what actually crossed the bus. Fault injection: with ``drop_replies`` set, the motors still act on
+commands but stop answering (a broken reply path); motors whose index is in ``silent`` never answer
+(unpowered, or a wrong CAN id); each other reply is lost with probability ``drop_probability``
+(a noisy bus; seeded); ``faults`` maps a motor's index to the fault code (CubeMars) or status
+(Damiao) its replies report. Damiao drives keep their registers (``registers``, read and written
+over the bus) and disable themselves when no command came for their TIMEOUT register's time (wall
+clock), reporting status 13 until enabled again, as a drive whose host died. ``body_state()`` gives the plant's last full state, standing in for
+the robot's IMU and force sensors, which are not on the motor buses.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import can
+import numpy as np
+
+from robot_ctrl.buses.bus_config import BusConfig
+from robot_ctrl.buses.mit_protocol import (
+    DISABLE,
+    ENABLE,
+    HOST_ID,
+    PARAM_CAN_ID,
+    PARAM_WRITE,
+    SET_ZERO,
+    TIMEOUT_REGISTER,
+    TIMEOUT_UNIT,
+    MitRanges,
+    pack_reply,
+    param_frame,
+    unpack_command,
+    unpack_param,
+)
+from robot_ctrl.hw.adapter import HardwareAdapter
+from robot_ctrl.hw.types import JointCommand, JointState
+
+LOST = 13  # Damiao status: communication lost (its CAN timeout expired)
+AMBIENT = 30.0  # [°C] the temperature an emulated drive reports when the plant has none
+
+
+class MitCanEmulator:
+    def __init__(self, config: BusConfig, plant: HardwareAdapter):
+        if config.backend != "mit_can":
+            raise ValueError(f"{config.path.name} is a {config.backend!r} config, not mit_can")
+        self.config = config
+        self.plant = plant
+        self.nj = len(config.motors)
+        self.ranges = [MitRanges.from_dict(config.models[m.model]) for m in config.motors]
+        self.formats = [config.reply_format(m) for m in config.motors]
+        self.faults: dict[int, int] = {}
+        self.registers: list[dict[int, int]] = [{} for _ in config.motors]
+        self._last_command = np.zeros(self.nj)  # [s] wall clock of each motor's last frame
+        self._index = {(m.bus, m.id): i for i, m in enumerate(config.motors)}
+        self.enabled = np.zeros(self.nj, dtype=bool)
+        self.encoder_zero = np.zeros(self.nj)  # set by the set-zero frame [rad, motor side]
+        self.received: list[tuple[float, JointCommand]] = []
+        self.drop_replies = False
+        self.silent: set[int] = set()
+        self.drop_probability = 0.0
+        self._rng = np.random.default_rng(0)
+        self._pending: list[tuple[float, float, float, float, float] | None] = [None] * self.nj
+        self._lock = threading.Lock()
+        self._state: JointState | None = None
+        self._buses: dict[str, can.BusABC] = {}
+        self._threads: list[threading.Thread] = []
+        self._running = threading.Event()
+
+    def start(self) -> None:
+        """Bring the plant up (configure, activate) and start listening on every bus."""
+        self.plant.configure()
+        self.plant.activate()
+        self._state = self.plant.read()
+        self._running.set()
+        for name, options in self.config.buses.items():
+            bus = can.Bus(**options)
+            self._buses[name] = bus
+            thread = threading.Thread(target=self._serve, args=(name, bus), name=f"mit-emulator-{name}", daemon=True)
+            thread.start()
+            self._threads.append(thread)
+
+    def close(self) -> None:
+        self._running.clear()
+        for thread in self._threads:
+            thread.join()
+        for bus in self._buses.values():
+            bus.shutdown()
+        self._threads.clear()
+        self._buses.clear()
+        self.plant.close()
+
+    def body_state(self) -> JointState:
+        with self._lock:
+            return self._state
+
+    def clock(self) -> float:
+        """The plant's time [s]: the clock a safety layer uses in lock-step emulation, where the
+        robot does not move while the controller computes."""
+        with self._lock:
+            return self._state.t
+
+    # Bus side -----------------------------------------------------------------------------------
+    def _serve(self, name: str, bus: can.BusABC) -> None:
+        """Answer the frames of bus ``name``; when stopped, the frames already sent are still taken
+        (a motor acts on every frame it receives, the disable sent just before a close included)."""
+        while True:
+            msg = bus.recv(timeout=0.05 if self._running.is_set() else 0.0)
+            if msg is None:
+                if not self._running.is_set():
+                    return
+                continue
+            if msg.arbitration_id == HOST_ID:
+                continue
+            if msg.arbitration_id == PARAM_CAN_ID:
+                self._register(name, bus, bytes(msg.data))
+                continue
+            i = self._index.get((name, msg.arbitration_id))
+            if i is None:
+                continue
+            data = bytes(msg.data)
+            with self._lock:
+                self._check_timeout(i)
+                if data == ENABLE:
+                    self.enabled[i] = True
+                    if self.faults.get(i) == LOST:
+                        del self.faults[i]  # enabling again clears a lost communication
+                elif data == DISABLE:
+                    self.enabled[i] = False
+                elif data == SET_ZERO:
+                    self.encoder_zero[i] += self._motor_position(i)
+                elif len(data) == 8:
+                    self._pending[i] = unpack_command(data, self.ranges[i])
+                    if all(c is not None for c in self._pending):
+                        self._step()  # answers every motor's command with the state after the step
+                    continue
+                self._reply(i)
+
+    def _register(self, name: str, bus: can.BusABC, data: bytes) -> None:
+        """A Damiao register read or write: answered with the register's value."""
+        frame = unpack_param(data)
+        i = None if frame is None else self._index.get((name, frame[0]))
+        if i is None or self.formats[i] != "damiao" or i in self.silent:
+            return
+        motor_id, op, register, value = frame
+        with self._lock:
+            if op == PARAM_WRITE:
+                self.registers[i][register] = value
+            answer = param_frame(motor_id, op, register, self.registers[i].get(register, 0))
+        bus.send(can.Message(arbitration_id=HOST_ID, data=answer, is_extended_id=False))
+
+    def _check_timeout(self, i: int) -> None:
+        """A Damiao drive whose TIMEOUT passed since its last frame disables itself (status 13)."""
+        now = time.monotonic()
+        timeout = self.registers[i].get(TIMEOUT_REGISTER, 0) * TIMEOUT_UNIT
+        if self.enabled[i] and self.formats[i] == "damiao" and timeout > 0 and now - self._last_command[i] > timeout:
+            self.enabled[i] = False
+            self.faults[i] = LOST
+        self._last_command[i] = now
+
+    def _motor_position(self, i: int) -> float:
+        m = self.config.motors[i]
+        return m.direction * m.gear_ratio * self._state.q[i] + m.zero_offset - self.encoder_zero[i]
+
+    def _step(self) -> None:
+        p, v, kp, kd, t = (np.array(column) for column in zip(*self._pending))
+        self._pending = [None] * self.nj
+        d, g = self.config.direction, self.config.gear
+        on = self.enabled.astype(float)
+        cmd = JointCommand(q=d * (p + self.encoder_zero - self.config.zero) / g, dq=d * v / g, kp=on * kp * g**2,
+                           kd=on * kd * g**2, tau_ff=on * d * g * t)
+        self.received.append((self._state.t, cmd))
+        self.plant.write(cmd)
+        self._state = self.plant.read()
+        for i in range(self.nj):
+            self._reply(i)
+
+    def _reply(self, i: int) -> None:
+        if self.drop_replies or i in self.silent or (self.drop_probability and self._rng.random() < self.drop_probability):
+            return
+        m, s = self.config.motors[i], self._state
+        v = m.direction * m.gear_ratio * s.dq[i]
+        tau = m.direction * s.tau[i] / m.gear_ratio
+        code = self.faults.get(i)
+        if code is None and self.formats[i] == "damiao" and not self.enabled[i]:
+            code = 0  # a disabled Damiao drive says so
+        temperature = s.temperature[i] if s.temperature is not None else AMBIENT
+        data = pack_reply(m.id, self._motor_position(i), v, tau, self.ranges[i], self.formats[i], temperature, code)
+        self._buses[m.bus].send(can.Message(arbitration_id=HOST_ID, data=data, is_extended_id=False))

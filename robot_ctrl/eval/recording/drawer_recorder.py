@@ -1,0 +1,181 @@
+"""DrawerRecorder: what the walk-and-reach drawer task is judged by, measured in the simulation.
+
+Per tick: the measured base pose, each ankle pitch servo's demanded torque, the vertical ground
+reaction forces and the drawer scene's ground truth (``JointState.scene``: opening, pull force,
+grasp, both hands' distances to their targets); and what a demonstration is made of
+(``eval/campaigns/feasible_demonstrations.py``): the measured joint angles, the base's full pose and its twist
+in the heading frame. The report (:meth:`DrawerRecorder.report`):
+
+- ``realized_step_lengths_m``: the measured pelvis advance along the start heading over each
+  synthesized action, between the ticks at which the synthesis switched action (the synthesizer's
+  own sum is ``planned_step_lengths_m``'s counterpart, not this);
+- ``final_pelvis_to_drawer_m``: measured pelvis to the drawer's closed front panel, at the end;
+- ``hand_to_handle_m``: left gripper base to the handle's grip point when the grasp switched on
+  (or its least value if it never did); ``hand_to_object_m``: right gripper base to the object's
+  reach point at the end; ``hand_to_object_synth_only_m``: the synthesized arm angles alone, by
+  forward kinematics at the measured pelvis pose and legs, against the same point;
+- ``synthesis_step_length_errors_m``: the synthesizer's own pelvis advance over each finished
+  action less the length it planned (the synthesis alone, kinematic: what it would do with a robot
+  that followed it exactly);
+- ``success``: no fall, every step within ``STEP_TOLERANCE``, pelvis within ``COMFORT_TOLERANCE`` of
+  the comfort distance, the drawer open by at least the required clearance, the right hand within
+  ``OBJECT_TOLERANCE`` of the object.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from robot_ctrl.geometry import SIDES, base_pose_xy_yaw
+from robot_ctrl.geometry.drawer_geometry import DRAWER_READINGS
+from robot_ctrl.synthesis.step_planning import Action
+
+STEP_TOLERANCE = 0.010  # [m] per action (thesis Fig. 3.41: below 10 mm)
+COMFORT_TOLERANCE = 0.03  # [m]
+OBJECT_TOLERANCE = 0.02  # [m]
+
+
+class DrawerRecorder:
+    def __init__(self, commander, robot):
+        """``commander``: the :class:`~robot_ctrl.control.commanders.walk_reach_commander.WalkReachCommander`."""
+        self.commander, self.robot = commander, robot
+        self._ankles = [robot.config.joint_index("ankle_pitch", s) for s in SIDES]
+        self._grippers = [robot.config.joint_index("grippers", s) for s in SIDES]
+        self.ankle_limit = robot.effort[self._ankles]
+        # Each tick's measured state, turned into rows when asked for: off the tick's serial path (a
+        # JointState is a snapshot: its arrays are the backend's copies).
+        self.states: list = []
+        self._arrays: tuple[int, dict[str, np.ndarray]] | None = None  # arrays() of the first n states
+        # The last standing tick's synthesized arm angles and measured configuration, and the object.
+        self._stand: tuple[tuple[np.ndarray, np.ndarray], np.ndarray] | None = None
+
+    def on_command(self, tick) -> None:
+        pass
+
+    def on_state(self, tick) -> None:
+        self.states.append(tick.states[0])
+        c = self.commander
+        if c.output is not None and c.output.action is Action.STAND:
+            self._stand = c.synthesized_pose_at_measured(), c.targets.object(tick.t, c.opening)
+
+    @property
+    def synth_hand_error(self) -> float:
+        """The synthesized arm angles alone at the last standing tick, by forward kinematics at the
+        measured pelvis pose and legs: the right hand's distance to the object [m] (NaN: never stood)."""
+        if self._stand is None:
+            return np.nan
+        pose, target = self._stand
+        return float(np.linalg.norm(self.commander.body.hands(*pose)["right"] - target))
+
+    def _row(self, s) -> np.ndarray:
+        base = base_pose_xy_yaw(s.base_pos, s.base_quat_xyzw)
+        tau = s.tau_demand if s.tau_demand is not None else s.tau
+        grf = [float((s.foot_wrench or {}).get(side, np.zeros(6))[2]) for side in SIDES]
+        scene = (s.scene if s.scene is not None else np.full(len(DRAWER_READINGS), np.nan))[:len(DRAWER_READINGS)]
+        return np.concatenate([[s.t], base, tau[self._ankles], grf, s.q[self._grippers], scene])
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """Per tick: time, base pose, ankle pitch torques, vertical GRFs, gripper angles and the
+        drawer's readings; built once for the report and the saved series (read-only)."""
+        if self._arrays is None or self._arrays[0] != len(self.states):
+            a = np.array([self._row(s) for s in self.states]).reshape(-1, 10 + len(DRAWER_READINGS))
+            a.flags.writeable = False
+            out = {"t": a[:, 0], "base": a[:, 1:4], "ankle_pitch_torque": a[:, 4:6], "grf": a[:, 6:8],
+                   "gripper_q": a[:, 8:10]}
+            out.update({name: a[:, 10 + i] for i, name in enumerate(DRAWER_READINGS)})
+            self._arrays = len(self.states), out
+        return dict(self._arrays[1])
+
+    def body_arrays(self) -> dict[str, np.ndarray]:
+        """Per tick: ``base_twist`` (vx, vy [m/s] in the base's heading frame, ωz [rad/s] about the
+        world's z), ``base_pos`` [m] and ``base_quat_xyzw`` (world), ``joint_q`` [rad] (joint order)."""
+        a = np.array([np.concatenate([heading_twist(s), s.base_pos, s.base_quat_xyzw, s.q]) for s in self.states],
+                     dtype=np.float32).reshape(-1, 10 + self.robot.nj)
+        return {"base_twist": a[:, :3], "base_pos": a[:, 3:6], "base_quat_xyzw": a[:, 6:10], "joint_q": a[:, 10:]}
+
+    def report(self, fell: bool, geometry, slot: str, comfort: float) -> dict:
+        c = self.commander
+        plan = c.synth.plan if c.synth is not None else []
+        planned = [p.length for p in plan[: max(len(c.boundaries) - 1, 0)]]
+        return drawer_outcome(self.arrays(), [t for t, _ in c.boundaries], planned, c.targets.advance, fell=fell,
+                              required_opening=geometry.required_opening(slot), comfort=comfort,
+                              ankle_limit=self.ankle_limit) | dict(
+            actions=[action for _, action in c.boundaries if action],
+            synthesis_step_length_errors_m=_round([h.end_progress - h.start_progress - h.planned_length
+                                                   for h in (c.synth.history if c.synth is not None else [])
+                                                   if h.end_progress is not None]),
+            hand_to_object_synth_only_m=round(self.synth_hand_error, 4),
+            replans=c.synth.replans if c.synth is not None else 0)
+
+    def save(self, out_dir: Path) -> Path:
+        """Append the drawer's series to the walk's ``timeseries.npz`` (action boundaries too)."""
+        path = Path(out_dir) / "timeseries.npz"
+        with np.load(path) as f:
+            data = dict(f)
+        a = self.arrays()
+        data.update({f"drawer_{k}" if k in ("t", "base", "grf") else k: v for k, v in a.items()})
+        data.update(self.body_arrays())
+        data["ankle_pitch_limit_nm"] = self.ankle_limit
+        data["action_starts"] = np.array([[t, action] for t, action in self.commander.boundaries]).reshape(-1, 2)
+        np.savez_compressed(path, **data)
+        return path
+
+
+def heading_twist(s) -> np.ndarray:
+    """The base's measured twist ``(vx, vy, ωz)``: linear velocity in its heading frame (x forward
+    along its yaw, z up), yaw rate about the world's z, from a ``JointState``."""
+    yaw = base_pose_xy_yaw(s.base_pos, s.base_quat_xyzw)[2]
+    c, si = np.cos(yaw), np.sin(yaw)
+    v = s.base_linvel
+    x, y, z, w = s.base_quat_xyzw
+    world_angvel_z = 2 * (x * z - w * y) * s.base_angvel[0] + 2 * (y * z + w * x) * s.base_angvel[1] + \
+        (1 - 2 * (x * x + y * y)) * s.base_angvel[2]  # third row of the base's rotation matrix
+    return np.array([c * v[0] + si * v[1], -si * v[0] + c * v[1], world_angvel_z])
+
+
+def drawer_outcome(a: dict[str, np.ndarray], boundaries: list[float], planned: list[float],
+                   advance: Callable[[np.ndarray], float], *, fell: bool, required_opening: float, comfort: float,
+                   ankle_limit: np.ndarray) -> dict:
+    """The drawer task's measured figures and ``success`` from its logged arrays (``a``, as
+    :meth:`DrawerRecorder.arrays` gives them): ``boundaries``, the times [s] at which the synthesis
+    switched action; ``planned``, the synthesized lengths [m] of the actions between them;
+    ``advance(base_xy)``, the pelvis advance [m] along the start heading of a measured base."""
+
+    def advance_at(t: float) -> float:
+        k = min(int(np.searchsorted(a["t"], t - 1e-9)), len(a["t"]) - 1)
+        return advance(a["base"][k, :2])
+
+    realized = [advance_at(t1) - advance_at(t0) for t0, t1 in zip(boundaries, boundaries[1:])]
+    errors = [r - p for r, p in zip(realized, planned)]
+    grasped = a["grasped"] > 0.5
+    to_handle = a["left_hand_to_handle_m"]
+    at_grasp = to_handle[np.argmax(grasped)] if grasped.any() else np.nanmin(to_handle)
+    final_distance = float(a["cabinet_distance_m"][-1]) - advance_at(a["t"][-1])
+    opening = float(a["drawer_opening_m"][-1])
+    hand_to_object = float(a["right_hand_to_object_m"][-1])
+    step_error = float(np.abs(errors).max()) if errors else None
+    ankle = np.abs(a["ankle_pitch_torque"]).max(axis=0) / ankle_limit
+    success = bool(not fell and step_error is not None and step_error <= STEP_TOLERANCE
+                   and abs(final_distance - comfort) <= COMFORT_TOLERANCE and opening >= required_opening
+                   and hand_to_object <= OBJECT_TOLERANCE)
+    return dict(
+        success=success, planned_step_lengths_m=_round(planned), realized_step_lengths_m=_round(realized),
+        step_length_errors_m=_round(errors), step_length_error_max_m=_round(step_error),
+        comfort_distance_m=round(comfort, 4), final_pelvis_to_drawer_m=round(final_distance, 4),
+        drawer_opening_m=round(opening, 4), drawer_opening_required_m=required_opening,
+        drawer_pull_force_peak_n=round(float(np.nanmax(a["drawer_pull_force_n"])), 2),
+        grasp="weld" if grasped.any() else "none",
+        grasp_time_s=round(float(a["t"][np.argmax(grasped)]), 3) if grasped.any() else None,
+        hand_to_handle_m=round(float(at_grasp), 4), hand_to_object_m=round(hand_to_object, 4),
+        peak_ankle_pitch_torque_ratio={side: round(float(r), 4) for side, r in zip(SIDES, ankle)})
+
+
+def _round(values, digits: int = 5):
+    if values is None:
+        return None
+    if isinstance(values, float):
+        return round(values, digits) + 0.0  # + 0.0: no "-0.0" in a report
+    return [round(float(v), digits) + 0.0 for v in values]

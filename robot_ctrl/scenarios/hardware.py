@@ -1,0 +1,151 @@
+"""Choosing a hardware backend by name, as the CLI's ``--hw`` does.
+
+- ``mujoco``: the robot simulated in MuJoCo (``MujocoBackend``) in a process of its own
+  (``RobotProcess``: the controller computes while the robot moves), behind a ``SafetyLayer`` with
+  the robot's limits and no soft start (``SafetyLimits.for_simulation``), on the simulation's clock.
+- ``mit-can-emulated``: ``MitCanBackend`` behind a ``SafetyLayer``, talking over python-can virtual
+  buses to a ``MitCanEmulator`` whose motors drive the MuJoCo simulation (hardware in the loop).
+- ``dynamixel-emulated``: ``DynamixelBackend`` behind a ``SafetyLayer``, over a pseudo-terminal to a
+  ``DynamixelEmulator`` driving the MuJoCo simulation.
+- ``mit-can``, ``dynamixel``: real drives on the interfaces the bus config (``--bus-config``, required)
+  names, behind a ``SafetyLayer`` on the wall clock with its watchdog thread. The IMU and the foot
+  force/torque sensors come from the driver the bus config's ``body_sensors`` names
+  (``buses/body_sensors.py``); without one they read the joints only, which the bring-up commands
+  (``robot-ctrl hw``) need, and the scenarios refuse to run.
+
+``disturbances`` (pushes, model mismatch, latency, sensor noise: ``sim/disturbances.py``) act on the
+simulated robot, on the emulated buses' too. Every kind comes behind a ``SafetyLayer``: what a
+controller sends reaches the simulated servos as it would reach real ones, and the layer's
+interventions go to the run's report. ``video`` records an MP4 of the simulated robot
+(``MujocoWorld``). The emulated setups read the bus mapping from ``configs/hw/<robot>_mit_can.yaml`` or
+``<robot>_dynamixel.yaml`` (or ``bus_config``), and use the simulation's clock for the safety layer's
+watchdog and staleness checks (lock-step: the simulated robot waits for the controller); the
+watchdog thread runs as it would on a real bus.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import time
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Callable, Iterator
+
+from robot_ctrl.buses.body_sensors import open_body_sensors
+from robot_ctrl.buses.bus_config import load_bus_config, shipped_bus_configs
+from robot_ctrl.hw.safety import SafetyLayer, SafetyLimits
+from robot_ctrl.modes import HardwareKind
+from robot_ctrl.robot.config import ConfigError
+from robot_ctrl.robot.model import RobotModel
+from robot_ctrl.sim.disturbances import Disturbances
+from robot_ctrl.sim.mujoco_backend import MujocoBackend
+from robot_ctrl.sim.mujoco_world import MujocoWorld
+from robot_ctrl.sim.prop import Prop
+from robot_ctrl.sim.robot_process import RobotProcess
+
+
+@contextmanager
+def open_hardware(kind: HardwareKind | str, robot: RobotModel, bus_config: str | None = None, viewer: bool = False,
+                  control_dt: float = 0.005, video: Path | None = None,
+                  disturbances: Disturbances = Disturbances(),
+                  prop: Prop | None = None,
+                  clock: Callable[[], float] = time.monotonic) -> Iterator[SafetyLayer]:
+    """The adapter for ``kind``; emulators are started before and stopped after the block.
+    ``prop``: a prop placed in the robot's simulated world (``sim/prop.py``), whose readings arrive
+    in ``JointState.scene`` (e.g. the walk-and-reach task's drawer cabinet, ``sim/drawer_cabinet.py``);
+    ``clock``: what real servos' backend and safety layer measure time with."""
+    kind = HardwareKind.parse(kind)
+    if disturbances.reply_loss and kind is not HardwareKind.MIT_CAN_EMULATED:
+        raise ValueError(f"reply loss acts on the emulated MIT-CAN bus (--hw mit-can-emulated), not on {kind.value}")
+    if kind is HardwareKind.MUJOCO:
+        robot_process = RobotProcess(functools.partial(MujocoBackend, robot, control_dt, viewer=viewer, video=video,
+                                                       disturbances=disturbances, prop=prop), robot.nj, robot.name)
+        hw = SafetyLayer(robot_process, SafetyLimits.for_simulation(robot, control_dt), clock=None)
+        try:
+            yield hw
+        finally:
+            hw.close()
+        return
+    limits = SafetyLimits.from_robot(robot, control_dt)
+    if kind.real:
+        hw = SafetyLayer(_bus_backend(kind, robot, bus_config, clock), limits, clock=clock)
+        hw.start_watchdog()
+        try:
+            yield hw
+        finally:
+            hw.close()
+        return
+    plant = MujocoBackend(robot, control_dt, viewer=viewer, video=video, disturbances=disturbances, prop=prop)
+    if kind is HardwareKind.MIT_CAN_EMULATED:
+        from robot_ctrl.buses.mit_can_backend import MitCanBackend
+        from robot_ctrl.buses.mit_can_emulator import MitCanEmulator
+
+        config = load_bus_config(bus_config or f"{robot.name}_mit_can", robot.joint_names)
+        emulator = MitCanEmulator(config, plant)
+        emulator.drop_probability = disturbances.reply_loss
+        emulator.start()
+        backend = MitCanBackend(config, robot.kd, body_sensors=emulator.body_state)
+    else:
+        from robot_ctrl.buses.dynamixel_backend import DynamixelBackend
+        from robot_ctrl.buses.dynamixel_emulator import DynamixelEmulator
+
+        config = load_bus_config(bus_config or f"{robot.name}_dynamixel", robot.joint_names)
+        emulator = DynamixelEmulator(config, plant)
+        emulator.start()
+        config = dataclasses.replace(config, buses={name: dict(port, device=emulator.port_names[name])
+                                                    for name, port in config.buses.items()})
+        backend = DynamixelBackend(config, robot.kd, body_sensors=emulator.body_state, effort=robot.effort,
+                                   velocity=robot.velocity_limit)
+    hw = SafetyLayer(backend, limits, clock=emulator.clock)
+    hw.start_watchdog()  # a bus has no lock-step: a stalled controller must be caught from outside
+    try:
+        yield hw
+    finally:
+        hw.close()
+        emulator.close()
+
+
+def _bus_backend(kind: HardwareKind, robot: RobotModel, bus_config: str | None, clock: Callable[[], float]):
+    """The backend of real drives, on the interfaces the bus config names, with the body sensors it
+    names (if any)."""
+    if bus_config is None:
+        raise ConfigError(f"--hw {kind.value} needs --bus-config: the YAML naming your buses, CAN ids, directions "
+                          f"and zero offsets (start from {shipped_bus_configs()})")
+    config = load_bus_config(bus_config, robot.joint_names)
+    sensors = open_body_sensors(config, robot) if config.body_sensors else None
+    if kind is HardwareKind.MIT_CAN:
+        from robot_ctrl.buses.mit_can_backend import MitCanBackend
+
+        return MitCanBackend(config, robot.kd, body_sensors=sensors, clock=clock)
+    from robot_ctrl.buses.dynamixel_backend import DynamixelBackend
+
+    return DynamixelBackend(config, robot.kd, body_sensors=sensors, clock=clock, effort=robot.effort,
+                            velocity=robot.velocity_limit)
+
+
+@contextmanager
+def open_group_hardware(kind: HardwareKind | str, robot: RobotModel, base_poses: list[tuple[float, float, float]],
+                        viewer: bool = False, control_dt: float = 0.005, video: Path | None = None,
+                        disturbances: Disturbances = Disturbances()) -> Iterator[tuple[MujocoWorld, list[SafetyLayer]]]:
+    """Several copies of ``robot`` in one MuJoCo world, at ``base_poses`` (world x, y, yaw), each
+    behind its own ``SafetyLayer`` and under the same ``disturbances`` (each robot pushed in its own
+    start frame); the world steps once every robot has written its command. Only
+    ``mujoco``: the emulated buses each drive a world of their own."""
+    if disturbances.reply_loss:
+        raise ValueError("reply loss acts on the emulated MIT-CAN bus (--hw mit-can-emulated); a group walks in MuJoCo")
+    if HardwareKind.parse(kind) is not HardwareKind.MUJOCO:
+        raise ValueError(f"hw {kind!r}: a group walks in one shared MuJoCo world, which only the 'mujoco' "
+                         "backend drives (each emulated bus drives a simulated robot of its own)")
+    prefixes = tuple(f"{robot.name}_{i}" for i in range(len(base_poses)))
+    world = MujocoWorld(robot.group_mjcf_path(prefixes), control_dt, viewer, video, disturbances.friction_scale)
+    limits = SafetyLimits.for_simulation(robot, control_dt)
+    hws = [SafetyLayer(MujocoBackend(robot, world=world, prefix=p, base_xy_yaw=pose, disturbances=disturbances),
+                       limits, clock=None)
+           for p, pose in zip(prefixes, base_poses)]
+    try:
+        yield world, hws
+    finally:
+        for hw in hws:
+            hw.close()
+        world.close()
