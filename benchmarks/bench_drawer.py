@@ -20,11 +20,11 @@ import time
 import numpy as np
 from bench_loop import TickSplit, physics_around
 
+from robot_ctrl.backends import open_hardware
 from robot_ctrl.modes import FilterMode
 from robot_ctrl.robot import load_robot
 from robot_ctrl.scenarios.drawer import run_drawer
 from robot_ctrl.scenarios.drawer_task import DrawerTask
-from robot_ctrl.scenarios.hardware import open_hardware
 from robot_ctrl.sim.disturbances import Disturbances
 from robot_ctrl.sim.drawer_cabinet import DrawerPlacement
 from robot_ctrl.sim.mujoco_backend import MujocoBackend

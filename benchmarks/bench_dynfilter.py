@@ -16,12 +16,12 @@ import time
 
 import numpy as np
 
+from robot_ctrl.backends import open_hardware
 from robot_ctrl.control.commanders.path_follower import WalkGoal
 from robot_ctrl.control.controllers.walking_controller import WalkingOptions
 from robot_ctrl.dynfilter import dynamic_filter as df
 from robot_ctrl.modes import ArmMotion, FilterMode
 from robot_ctrl.robot import load_robot
-from robot_ctrl.scenarios.hardware import open_hardware
 from robot_ctrl.scenarios.walk import WalkSettings, run_walk
 
 

@@ -46,7 +46,7 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     "robot.model": ["RobotModel", "load_robot", "configuration"], "robot.config": ["RobotConfig", "ConfigError"],
     # hardware: the interface, what crosses it, the safety layer; backends chosen by name
     "hw.adapter": ["HardwareAdapter", "HardwareFault"], "hw.safety": ["SafetyLayer", "SafetyMode"],
-    "hw.types": ["JointState", "JointCommand", "LifecycleState"], "scenarios.hardware": ["open_hardware"],
+    "hw.types": ["JointState", "JointCommand", "LifecycleState"], "backends": ["open_hardware"],
     # the simulated world: disturbances of a simulated robot, props
     "sim.disturbances": ["Disturbances", "Push"], "sim.drawer_cabinet": ["DrawerPlacement"],
     # modes a user chooses between

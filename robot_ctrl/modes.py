@@ -41,7 +41,7 @@ class BaseState(_Mode):
 
 
 class HardwareKind(_Mode):
-    """The backends a scenario runs on (``robot_ctrl.scenarios.hardware.open_hardware``)."""
+    """The backends a scenario runs on (``robot_ctrl.backends.open_hardware``)."""
 
     MUJOCO = "mujoco"
     MIT_CAN_EMULATED = "mit-can-emulated"

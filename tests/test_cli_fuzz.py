@@ -64,11 +64,11 @@ def run(argv):
 
 @pytest.fixture
 def no_work(monkeypatch):
+    import robot_ctrl.backends as hardware
     import robot_ctrl.crowd.audit as audit
     import robot_ctrl.crowd.experiments as experiments
     import robot_ctrl.eval.campaigns.campaign_backends as campaign_backends
     import robot_ctrl.scenarios.group_walk as group_walk
-    import robot_ctrl.scenarios.hardware as hardware
     import robot_ctrl.synthesis.demonstrations as demonstrations
     import robot_ctrl.synthesis.learned as synthesis
 

@@ -5,11 +5,11 @@ import json
 import numpy as np
 import pytest
 
+from robot_ctrl.backends import open_hardware
 from robot_ctrl.cli import main
 from robot_ctrl.control.loop.control_loop import ControlLoop
 from robot_ctrl.eval.recording.recorders import TimeLimit
 from robot_ctrl.hw.types import JointCommand
-from robot_ctrl.scenarios.hardware import open_hardware
 from robot_ctrl.wpg.params import WalkParams
 
 

@@ -18,6 +18,7 @@ LAYER = {
     "wpg": 2, "sot": 2, "synthesis": 2,  # pipeline stages
     "sim": 3, "buses": 3,  # backends of the hardware interface: the simulated world, real servo buses
     "crowd": 3, "dynfilter": 3,
+    "backends": 4,  # a backend chosen by name (the CLI's --hw), behind the safety layer
     "control": 4, "control.estimation": 4, "control.loop": 4,
     "control.controllers": 5, "control.commanders": 6,
     "eval": 7, "eval.recording": 7, "eval.reports": 8, "eval.campaigns": 9,

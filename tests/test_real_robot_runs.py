@@ -15,6 +15,7 @@ import emulated_body_sensors
 import numpy as np
 import pytest
 
+from robot_ctrl.backends import open_hardware
 from robot_ctrl.buses.bus_config import load_bus_config
 from robot_ctrl.buses.mit_can_emulator import MitCanEmulator
 from robot_ctrl.cli import main
@@ -23,7 +24,6 @@ from robot_ctrl.control.loop.pacer import Pacer
 from robot_ctrl.control.loop.start_sequence import StartParams
 from robot_ctrl.modes import BaseState
 from robot_ctrl.scenarios.bringup import HOLD_S
-from robot_ctrl.scenarios.hardware import open_hardware
 from robot_ctrl.scenarios.walk import WalkSettings, run_walk
 from robot_ctrl.sim.mujoco_backend import MujocoBackend
 

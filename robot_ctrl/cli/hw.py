@@ -31,10 +31,10 @@ def add_parsers(sub, robot) -> None:
 
 
 def _hw(args: argparse.Namespace) -> int:
+    from robot_ctrl.backends import open_hardware
     from robot_ctrl.control.loop.start_sequence import StartParams
     from robot_ctrl.robot.model import load_robot
     from robot_ctrl.scenarios import bringup
-    from robot_ctrl.scenarios.hardware import open_hardware
 
     if args.action in ("jog", "zero") and args.joint is None or args.action == "jog" and args.delta is None:
         raise ConfigError(f"hw {args.action} needs {'JOINT DELTA' if args.action == 'jog' else 'JOINT'}")

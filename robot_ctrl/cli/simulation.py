@@ -58,8 +58,8 @@ def simulation(args: argparse.Namespace, robot=None, prop=None):
     """The robot (``--robot``, unless the command loaded it already), its disturbances and its
     hardware for a single-robot scenario: simulated, emulated or real servos; ``prop``: a scene prop
     placed in the robot's world (the drawer cabinet)."""
+    from robot_ctrl.backends import open_hardware
     from robot_ctrl.robot.model import load_robot
-    from robot_ctrl.scenarios.hardware import open_hardware
 
     check_outputs(args)
     disturbances = parse_disturbances(args)

@@ -5,7 +5,6 @@ user task and runs the control loop; no control logic of their own.
 from robot_ctrl.lazy_exports import lazy_exports
 
 __all__, __getattr__, __dir__ = lazy_exports(__name__, {
-    "hardware": ["open_hardware", "open_group_hardware"],
     "walk": ["run_walk", "WalkSettings"],
     "balance": ["run_balance"],
     "drawer": ["run_drawer"],

@@ -23,7 +23,7 @@ def run_balance(robot: RobotModel, hw: SafetyLayer, params: BalanceParams = Bala
                 out_dir: Path | None = None, log: Callable[[str], None] = print, progress: bool = False,
                 disturbances: Disturbances = Disturbances(), recorders: Sequence = (),
                 base_state: BaseState = BaseState.SIMULATED, pacer: Pacer | None = None) -> dict:
-    """Run the balance demo on ``hw`` (from :func:`robot_ctrl.scenarios.hardware.open_hardware`); return
+    """Run the balance demo on ``hw`` (from :func:`robot_ctrl.backends.open_hardware`); return
     (and write to ``out_dir``) the report; ``recorders`` (a tick log) see every tick; the
     controller sees the base as ``base_state`` says; ``pacer`` keeps a real robot's ticks on time."""
     dt = params.control_dt

@@ -15,6 +15,7 @@ from typing import Callable
 
 import numpy as np
 
+from robot_ctrl.backends import open_group_hardware
 from robot_ctrl.control.commanders.coupling_commander import CouplingCommander
 from robot_ctrl.control.controllers.walking_controller import WalkingController, WalkingOptions
 from robot_ctrl.control.loop.control_loop import ControlLoop
@@ -23,7 +24,6 @@ from robot_ctrl.eval.recording import FallCriterion, RunMetrics
 from robot_ctrl.eval.recording.recorders import Fell, MetricsRecorder, ProgressBar, TimeLimit
 from robot_ctrl.eval.reports.group_walk_report import TouchdownRecorder, group_walk_report
 from robot_ctrl.robot.model import RobotModel
-from robot_ctrl.scenarios.hardware import open_group_hardware
 from robot_ctrl.sim.disturbances import Disturbances
 from robot_ctrl.wpg.params import WalkParams
 

@@ -46,7 +46,7 @@ class WalkSettings:
 def run_walk(robot: RobotModel, hw: SafetyLayer, goal: WalkGoal, settings: WalkSettings = WalkSettings(), *,
              out_dir: Path | None = None, log: Callable[[str], None] = print, progress: bool = False,
              disturbances: Disturbances = Disturbances(), recorders: Sequence = (), pacer: Pacer | None = None) -> dict:
-    """Walk ``goal`` on ``hw`` (from :func:`robot_ctrl.scenarios.hardware.open_hardware`, which applied
+    """Walk ``goal`` on ``hw`` (from :func:`robot_ctrl.backends.open_hardware`, which applied
     ``disturbances``: the report lists them) and report; ``recorders`` (a tick log) see every tick;
     ``pacer`` keeps a real robot's ticks on time."""
     s, options = settings, settings.controller
