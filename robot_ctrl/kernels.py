@@ -12,7 +12,9 @@ A call with other types still compiles on first use, as any numba function would
 
 from __future__ import annotations
 
+import threading
 import time
+from typing import Callable
 
 from numba import njit, types
 from numba.core.registry import CPUDispatcher
@@ -41,14 +43,35 @@ def kernel(*signatures: tuple):
     return register
 
 
-def load_kernels() -> float:
+def load_kernels(slow: Callable[[int, int], None] | None = None, after: float = 1.0, every: float = 5.0) -> float:
     """Load from the disk cache, or compile, every registered kernel of the modules imported so far
     for its registered argument types; the seconds it took (well under one once cached, tens on a
-    machine's first run). Quick once they are loaded."""
+    machine's first run). Quick once they are loaded. ``slow(done, total)`` is told, from another
+    thread, when it has taken ``after`` seconds and then every ``every`` seconds (kernels done of
+    all), so that a first run does not wait in silence."""
     start = time.perf_counter()
-    for dispatcher, signatures in _REGISTERED:
-        for signature in signatures:
-            dispatcher.compile(signature)
+    total = sum(len(signatures) for _, signatures in _REGISTERED)
+    done = [0]
+    finished = threading.Event()
+
+    def tell() -> None:
+        wait = after
+        while not finished.wait(wait):
+            slow(done[0], total)
+            wait = every
+
+    teller = threading.Thread(target=tell, name="kernel-progress", daemon=True) if slow is not None else None
+    if teller is not None:
+        teller.start()
+    try:
+        for dispatcher, signatures in _REGISTERED:
+            for signature in signatures:
+                dispatcher.compile(signature)
+                done[0] += 1
+    finally:
+        finished.set()
+        if teller is not None:
+            teller.join()
     return time.perf_counter() - start
 
 

@@ -11,6 +11,7 @@ import time
 from pathlib import Path
 
 import pytest
+import report_page
 
 from robot_ctrl.cli import main
 from robot_ctrl.eval.campaigns.drawer_campaign import (
@@ -190,10 +191,14 @@ def test_the_campaign_page_sets_falls_beside_the_thesis(tmp_path):
             for k, (method, speed, fell) in enumerate([("naive", "slow", True), ("naive", "fast", False),
                                                        ("ours", "slow", False), ("ours", "fast", False)])]
     page = render_campaign({"trials": rows, "summary": summarize(rows)}, tmp_path).read_text()
-    table = page.split("Table 3.1")[1].split("</table>")[0]
+    table = page.split("speed class (thesis Table 3.1)</h2>")[1].split("</table>")[0]
     assert "<td>naive 3+2</td><td>1 of 1</td><td>0 of 1</td><td>0 of 10</td><td>10 of 10</td><td>7 of 10</td>" in table
     assert "<td>ours 3+2</td><td>0 of 1</td><td>0 of 1</td><td>–</td><td>–</td><td>–</td>" in table
     assert page.count("data:image/png;base64,") == 4 and "Fig. 3.46" in page
+    # The first screen: how many fell and met every criterion, in the look every report has.
+    assert report_page.title(page) == "Drawer campaign — 4 trials"
+    assert report_page.verdict(page) == ("fail", "3 of 4 trials met every criterion, 1 fell, 0 ended in an error "
+                                                 "(naive, ours)")
 
 
 def test_the_campaign_page_shows_the_posture_after_the_step_before(tmp_path, talos):

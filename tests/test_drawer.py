@@ -6,6 +6,7 @@ import json
 import mujoco
 import numpy as np
 import pytest
+import report_page
 
 from robot_ctrl import ROOT
 from robot_ctrl.cli import main
@@ -76,6 +77,15 @@ def test_the_demo_drawer_task_succeeds(tmp_path):
     assert abs(report["step_length_errors_m"][-1]) <= 0.005 and report["hand_to_object_m"] <= 0.02
     assert report["safety"]["interventions"] == {}
     assert max(report["safety"]["demanded_peak_torque_ratio"].values()) <= 1.0
+    # Its page, rendered by the run, says what was done and that it worked, with the command.
+    page = (tmp_path / "report.html").read_text()
+    assert report_page.title(page) == "Drawer task — Talos, 2.0 m, front-left slot"
+    assert report_page.verdict(page)[0] == "ok"
+    assert report_page.command(page) == report["command"] == ("robot-ctrl drawer --robot talos --distance 2.0 --slot "
+                                                              f"front_left --quiet --out {tmp_path}")
+    figures = report_page.key_figures(page)
+    opening = f"{report['drawer_opening_m'] * 100:.1f} cm"
+    assert figures["drawer_opening_m"] == (opening, "≥ 14 cm (the hand's clearance)", True)
 
 
 def test_g1_with_hands_opens_its_own_cabinet_and_reaches_the_object(tmp_path):

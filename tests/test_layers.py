@@ -124,7 +124,7 @@ def test_every_package_says_what_it_is_and_exports_its_names():
             continue
         tree = ast.parse(path.read_text())
         assert ast.get_docstring(tree), f"{path} has no docstring"
-        if name not in ("cli", "control", "eval"):  # the command line; folders of subpackages
+        if name not in ("control", "eval"):  # folders of subpackages
             text = path.read_text()
             assert "lazy_exports(__name__" in text, f"{path} does not export its names with lazy_exports"
 

@@ -2,6 +2,8 @@
 
 import json
 
+import report_page
+
 from robot_ctrl.cli import main
 from robot_ctrl.eval.campaigns.campaign_backends import LocalBackend
 from robot_ctrl.eval.campaigns.robustness_campaign import run_robustness
@@ -32,6 +34,10 @@ def test_a_small_campaign(tmp_path):
     assert latency["walked"] and latency["final_position_error_m"] < 0.05
     page = (tmp_path / "robustness.html").read_text()
     assert f"<td>0.2 ({bound:.2f} | {own:.2f})</td>" in page
+    weakest = min(c["impulse_ns_per_kg"] for c in result["largest_survived_push"])
+    assert report_page.title(page) == f"Robustness — {result['walk']}"
+    assert report_page.verdict(page) == ("ok", f"Every push direction and gait phase survived at least {weakest:g} "
+                                               "N·s/kg; 1 of 1 model mismatches walked")
     assert "data:image/png;base64," in page and "latency 10 ms" in page and "http" not in page.replace("http-equiv", "")
     assert json.loads((tmp_path / "robustness.json").read_text()) == json.loads(json.dumps(result))
     assert "from the goal</td>" not in page

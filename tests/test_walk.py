@@ -5,6 +5,7 @@ import re
 
 import numpy as np
 import pytest
+import report_page
 
 from robot_ctrl.cli import main
 from robot_ctrl.control.commanders.path_follower import PathFollower, WalkGoal
@@ -38,21 +39,33 @@ def test_one_metre_walk_does_not_fall(robot, tmp_path):
     assert report["grf_limit_n"] == pytest.approx(1.4 * 9.81 * load_robot(robot).mass, rel=1e-3)
     assert max(report["peak_grf_n"].values()) < report["grf_limit_n"] and not any(report["grf_over_limit"].values())
     assert report["com_error_rms_m"] < 0.02
-    # The HTML report: the table shows the report's values, the four figures are embedded, nothing
-    # is fetched from the network.
+    # The command that reproduces the run, recorded by the CLI.
+    assert report["command"] == f"robot-ctrl walk --robot {robot} --distance 1.0 --out {tmp_path}"
+    # The HTML report: the first screen names the task, gives the verdict and the key figures
+    # against their goals, and the command; every other field below with its value.
     assert main(["report", str(tmp_path)]) == 0
     page = (tmp_path / "report.html").read_text()
-    table = dict(re.findall(r"<tr><th>([^<]+)</th><td>([^<]*)</td></tr>", page))
-    assert table["fell"] == "False" and table["dynfilter"] == "off"
-    for key in ("final_position_error_m", "zmp_in_support_ratio", "peak_torque_ratio", "com_error_rms_m"):
-        assert float(table[key]) == pytest.approx(report[key], rel=1e-3), key
-    assert json.loads(table["peak_grf_n"].replace("&quot;", '"')) == report["peak_grf_n"]
+    speed = report["goal"]["speed_mps"]
+    assert report_page.title(page) == f"Walk — {robot[:1].upper() + robot[1:]}, 1.0 m straight at {speed:g} m/s"
+    assert report_page.verdict(page) == ("ok", f"Walked to the goal: ended {report['final_position_error_m'] * 1000:.1f}"
+                                               f" mm and {report['final_yaw_error_deg']:.2f}° from it")
+    figures = report_page.key_figures(page)
+    assert figures["final_position_error_m"] == (f"{report['final_position_error_m'] * 1000:.1f} mm", "≤ 5 cm", True)
+    assert figures["zmp_in_support_ratio"] == (f"{report['zmp_in_support_ratio']:.1%}", "≥ 99%", True)
+    assert figures["peak_torque_ratio"][0].startswith(f"{report['peak_torque_ratio']:.2f} (")
+    grf = max(report["peak_grf_n"].values())
+    assert figures["peak_grf_n"] == (f"{grf:.0f} N", f"≤ {report['grf_limit_n']:.0f} N", True)
+    assert figures["safety.interventions"] == ("0", "0", True)
+    assert report_page.command(page) == report["command"]
+    rest = report_page.fields(page)
+    assert rest["dynfilter"] == "off" and rest["fell"] == "no"
+    assert rest["com_error_max_m"] == f"{report['com_error_max_m'] * 1000:.1f} mm"
     # The safety layer's report is a table of its own, each joint's demanded torque largest first.
     ratios = report["safety"]["demanded_peak_torque_ratio"]
-    assert table["mode"] == report["safety"]["mode"]
-    assert table["demanded_peak_torque_ratio"].startswith(f"{max(ratios, key=ratios.get)} {max(ratios.values()):.4g}, ")
+    joints = re.findall(r"<tr><td>(\w+_joint)</td><td>([^<]+)</td></tr>", rest["safety"])
+    assert joints[0] == (max(ratios, key=ratios.get), f"{max(ratios.values()):.3g}") and len(joints) == len(ratios)
     titles = re.findall(r'<img alt="([^"]+)" src="data:image/png;base64,', page)
-    assert titles == ["ZMP: reference vs measured", "Top view: CoM and footprints (start frame)",
+    assert titles == ["Top view: CoM and footprints, planned and realized (start frame)", "ZMP: reference vs measured",
                       "Peak joint torques against their limits", "Vertical ground reaction forces"]
     assert "http" not in page
 

@@ -10,6 +10,7 @@ from robot_ctrl.cli.options import (
     backend_args,
     backend_of,
     check_ranges,
+    command_line,
     dataset_arg,
     log_line,
     parse_sources,
@@ -51,7 +52,7 @@ def _campaign(args: argparse.Namespace) -> int:
     backend = backend_of(args, "campaign")
     args.out.mkdir(parents=True, exist_ok=True)
     result = campaign.run_drawer_campaign(trials, args.out, backend, robot, timeout=args.timeout,
-                                          progress=not args.quiet, log=log_line)
+                                          progress=not args.quiet, log=log_line, command=command_line(args))
     if result is None:
         raise KeyboardInterrupt("the campaign stopped; run the same command again to finish it")
     for s in result["summary"]:

@@ -97,6 +97,13 @@ def named(message: str, options: dict[str, str]) -> str:
     return re.sub(r"\b(" + "|".join(options) + r") = ", lambda m: f"{options[m.group(1)]} = ", message)
 
 
+def command_line(args: argparse.Namespace) -> str:
+    """The command that reproduces this run, as a shell would take it."""
+    import shlex
+
+    return shlex.join(["robot-ctrl", *args.argv])
+
+
 def log_line(line: str) -> None:
     """Print a line without tearing the progress bar."""
     from tqdm import tqdm

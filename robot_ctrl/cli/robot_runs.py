@@ -11,6 +11,7 @@ from robot_ctrl.cli.options import (
     backend_of,
     base_state_arg,
     check_ranges,
+    command_line,
     dataset_arg,
     log_arg,
     log_line,
@@ -103,11 +104,7 @@ def _drawer(args: argparse.Namespace) -> int:
         except SynthesisError as exc:
             raise ConfigError(f"drawer: --distance {task.distance} with these primitives (--dataset, --sources): "
                               f"{exc}") from exc
-    if args.out is not None and not args.no_html:
-        from robot_ctrl.eval.reports.html_report import render_report
-
-        log_line(f"wrote {render_report(args.out)}")
-    return finish(args, report)
+    return finish(args, report, html=not args.no_html)
 
 
 def check_drawer_tasks(tasks: dict, robot, options: dict[str, str] | None = None, dataset: Path | None = None,
@@ -146,7 +143,8 @@ def _robustness(args: argparse.Namespace) -> int:
                     mismatch={k: robustness.MISMATCH[k] for k in ("mass ×1.15", "latency 10 ms")})
     robustness.run_robustness(args.out, backend_of(args, "robustness"), log=log_line, progress=not args.quiet,
                               single=timing.get("single_support", WalkParams.single_support),
-                              double=timing.get("double_support", WalkParams.double_support), **grid)
+                              double=timing.get("double_support", WalkParams.double_support),
+                              command=command_line(args), **grid)
     return 0
 
 

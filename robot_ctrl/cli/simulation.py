@@ -7,7 +7,7 @@ import argparse
 from contextlib import contextmanager
 from pathlib import Path
 
-from robot_ctrl.cli.options import DISTURBANCE_OPTIONS, check_outputs, log_line, named
+from robot_ctrl.cli.options import DISTURBANCE_OPTIONS, check_outputs, command_line, log_line, named
 from robot_ctrl.modes import BaseState, HardwareKind
 from robot_ctrl.robot.config import ConfigError
 
@@ -144,7 +144,20 @@ def tick_log_recorders(args: argparse.Namespace, robot, hw, control_dt: float, p
     return open_tick_log(args.log, robot, hw, control_dt, pacer)
 
 
-def finish(args: argparse.Namespace, report: dict) -> int:
+def finish(args: argparse.Namespace, report: dict, html: bool = False) -> int:
+    """After a run: its report.json gains the command that reproduces it (and the video it
+    recorded), ``html`` renders its report.html; the exit status (1: the robot fell)."""
     if args.video is not None:
         log_line(f"wrote {args.video}")
+    if args.out is not None:
+        from robot_ctrl.eval.recording.report_file import write_report
+
+        report["command"] = command_line(args)
+        if args.video is not None:
+            report["video"] = str(Path(args.video).resolve())
+        write_report(report, args.out, log=lambda line: None)
+        if html:
+            from robot_ctrl.eval.reports.html_report import render_report
+
+            log_line(f"wrote {render_report(args.out)}")
     return 1 if report["fell"] else 0

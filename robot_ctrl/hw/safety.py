@@ -101,6 +101,11 @@ INTERVENTIONS = ("estop", "bad_measurement", "backend_fault", "watchdog", "stale
 WITHIN_EFFORT_MARGIN = 1e-9
 
 
+def _compiling(done: int, total: int) -> None:
+    logger.warning("compiling the control loop's numba kernels: this version's first run on this machine takes "
+                   "about 20 s, once (%d of %d done)", done, total)
+
+
 class SafetyLayer(HardwareAdapter):
     """Wraps any backend so that only safe commands reach it (module docstring: the checks,
     their order, damping on a fault, the watchdog); an adapter itself. The last line of defence: a
@@ -149,7 +154,7 @@ class SafetyLayer(HardwareAdapter):
     def _on_activate(self) -> None:
         # Before the servos are on and the watchdog armed: a kernel compiled inside the first ticks
         # (a machine's first run) would miss them.
-        if (seconds := load_kernels()) > 1.0:
+        if (seconds := load_kernels(_compiling)) > 1.0:
             logger.warning("compiled the control loop's numba kernels in %.0f s (this version's first run on this "
                            "machine; cached from now on)", seconds)
         self._backend_call(self.backend.activate)

@@ -206,7 +206,7 @@ def run_drawer_trials(trials: Sequence[DrawerTrial], out_dir: Path, backend: Bac
 
 def run_drawer_campaign(trials: Sequence[DrawerTrial], out_dir: Path, backend: Backend, robot: RobotModel, *,
                         timeout: float = TRIAL_TIMEOUT, progress: bool = True,
-                        log: Callable[[str], None] = print) -> dict | None:
+                        log: Callable[[str], None] = print, command: str | None = None) -> dict | None:
     """Run the trials not yet done in ``out_dir``; when all are, write ``campaign.json`` and
     ``campaign.html`` (``robot``: the trials' robot, for the Fig. 3.38 postures) and return the
     campaign; None when interrupted."""
@@ -215,7 +215,7 @@ def run_drawer_campaign(trials: Sequence[DrawerTrial], out_dir: Path, backend: B
         log(f"{len(run.rows)} of {len(trials)} trials done; run the same command again to finish the campaign")
         return None
     transitions = campaign_transitions(run.rows, robot)
-    campaign = {"trials": run.rows, "summary": summarize(run.rows),
+    campaign = {"command": command, "trials": run.rows, "summary": summarize(run.rows),
                 "transition_postures": [t | transition_summary(postures) for t, postures in transitions]}
     out_dir = Path(out_dir)
     tmp = out_dir / ".campaign.json.partial"

@@ -74,7 +74,7 @@ def _round(trials: list[Trial], out_dir: Path, backend: Backend, progress: bool,
 def run_robustness(out_dir: Path, backend: Backend, *, directions=DIRECTIONS, phases=PHASES,
                    magnitudes=MAGNITUDES, mismatch: dict = MISMATCH, log: Callable[[str], None] = print,
                    progress: bool = True, single: float = WalkParams.single_support,
-                   double: float = WalkParams.double_support) -> dict:
+                   double: float = WalkParams.double_support, command: str | None = None) -> dict:
     """Pushes grow per (direction, phase) until the first fall: one round of trials per magnitude,
     only for the cells that walked the round before. ``phases``: names of :func:`push_phases`;
     ``single``, ``double``: the walk's step timing [s], which sets its push times too. Every round
@@ -106,7 +106,7 @@ def run_robustness(out_dir: Path, backend: Backend, *, directions=DIRECTIONS, ph
                        for name, args in mismatch.items()]
     reports = _round(mismatch_trials, out_dir, backend, progress, "mismatch")
     result = {
-        "walk": " ".join(walk), "push_duration_s": 0.1, "phases_s": phases, "magnitudes_ns_per_kg": list(magnitudes),
+        "command": command, "walk": " ".join(walk), "push_duration_s": 0.1, "phases_s": phases, "magnitudes_ns_per_kg": list(magnitudes),
         "largest_survived_push": [{"direction_deg": d, "phase": p, "impulse_ns_per_kg": v,
                                    "final_position_error_m": ended[d, p]} | {k: capturable[d, p].get(k) for k in BOUNDS}
                                   for (d, p), v in largest.items()],

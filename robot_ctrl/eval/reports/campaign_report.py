@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from robot_ctrl.eval.reports.figures import figure_png
+from robot_ctrl.eval.reports.page import KeyFigure, Summary, Verdict, first_screen, page
 
 #: The thesis's numbers for its method (3.8.4): falls of 30 new trials per speed class (Table 3.1),
 #: step-length errors (Fig. 3.41), peak torque and GRF within the robot's limits (Fig. 3.47).
@@ -160,6 +161,28 @@ def _transitions_section(transitions: list[dict], png: str) -> str:
             f'</th></tr>{rows}</table><img alt="{html.escape(title)}" src="data:image/png;base64,{png}">')
 
 
+def _summary(campaign: dict) -> Summary:
+    """The campaign's first screen: falls, successes and errors over all trials, each method's falls."""
+    rows = campaign["trials"]
+    falls = sum(bool(r["fell"]) for r in rows)
+    successes = sum(bool(r["success"]) for r in rows)
+    errors = sum(bool(r["error"]) for r in rows)
+    steps = [abs(e) for r in rows if not r["error"] for e in (r.get("step_length_errors_m") or [])]
+    figures = [KeyFigure("Falls", f"{falls} of {len(rows)}", "0 (thesis Table 3.1: 0 of 30 for its method)",
+                         falls == 0),
+               KeyFigure("Trials meeting every criterion", f"{successes} of {len(rows)}", f"{len(rows)}",
+                         successes == len(rows)),
+               KeyFigure("Trials that ended in an error", f"{errors}", "0", errors == 0)]
+    if steps:
+        figures.append(KeyFigure("Largest step-length error", f"{max(steps) * 1000:.1f} mm",
+                                 "≤ 10 mm (thesis Fig. 3.41)", max(steps) <= 0.010))
+    methods = sorted({r["method"] for r in rows})
+    ok = falls == 0 and errors == 0 and successes == len(rows)
+    text = (f"{successes} of {len(rows)} trials met every criterion, {falls} fell, {errors} ended in an error "
+            f"({', '.join(methods)})")
+    return Summary(f"Drawer campaign — {len(rows)} trials", Verdict(ok, text), tuple(figures))
+
+
 def render_campaign(campaign: dict, out_dir: Path, transition_figure=None) -> Path:
     """Write ``out_dir/campaign.html``; ``transition_figure``: a matplotlib figure of the postures
     at the switch to standing (Fig. 3.38), whose figures ``campaign["transition_postures"]`` holds."""
@@ -187,23 +210,20 @@ def render_campaign(campaign: dict, out_dir: Path, transition_figure=None) -> Pa
                      for t, png in figures)
     if transition_figure is not None:
         images += _transitions_section(campaign.get("transition_postures", []), figure_png(transition_figure))
-    page = f"""<!DOCTYPE html>
-<html lang="en"><head><meta charset="utf-8"><title>robot_ctrl drawer campaign: {len(rows)} trials</title>
-<style>body{{font-family:sans-serif;max-width:1100px;margin:2em auto;}} table{{border-collapse:collapse;}}
-th,td{{border:1px solid #ccc;padding:3px 8px;text-align:right;font-size:90%;}} img{{max-width:100%;}}</style>
-</head><body><h1>Drawer campaign: {len(rows)} trials</h1>
-<h2>Falls per method, source count and speed class (thesis Table 3.1)</h2>{_falls_table(campaign["summary"])}
+    summary = _summary(campaign)
+    body = (first_screen(summary, campaign.get("command"))
+            + f"""<h2>Falls per method, source count and speed class (thesis Table 3.1)</h2>
+{_falls_table(campaign["summary"])}
 <h2>Summary</h2>
 <table><tr>{head}</tr>{body}</table>
 <h2>The thesis's method, for comparison</h2><ul>{thesis}</ul>
 <h2>Trials that fell, failed a criterion or ended in an error: {len(failed)}</h2>
 <details><summary>the list</summary><ul>{failures}</ul></details>
 {images}
-<p>Each trial's report: <code>trials/ID/report.json</code> (<code>robot-ctrl report trials/ID</code> renders it).</p>
-</body></html>
-"""
+<p>Each trial's report: <code>trials/ID/report.json</code> (<code>robot-ctrl report trials/ID</code> renders it).</p>""")
+    text = page(summary.title, body)
     path = out_dir / "campaign.html"
     tmp = out_dir / ".campaign.html.partial"
-    tmp.write_text(page)
+    tmp.write_text(text)
     tmp.replace(path)
     return path

@@ -1,15 +1,19 @@
 """``robot-ctrl report DIR``: render ``DIR/report.json`` (and ``DIR/timeseries.npz`` when the run
-wrote one) into a self-contained ``DIR/report.html``: a metrics table and matplotlib figures
-embedded as PNG data, no network resources.
+wrote one) into a self-contained ``DIR/report.html`` in the shared look (``page.py``).
 
-Figures: the tick log's (``log_figures``) for ``robot-ctrl log``; ZMP reference vs measured (x and y, world frame, against time, single-support phases
-shaded); top view of the planned and measured CoM paths with the planned and realized footprints
-(start frame); peak |torque| per joint against its limit; vertical ground reaction force per foot
-against time with the limit line; for the drawer task, ``drawer_figures``.
+The first screen answers "did it work, and how well": the task and its parameters, the verdict,
+the key figures against their goals (``run_summary.py``), the command that reproduces the run and a
+picture (the top view of the CoM and footprints; a frame of the run's video when it recorded one;
+a group walk's phase figure). Below it the figures: the tick log's (``log_figures``) for
+``robot-ctrl log``; ZMP reference vs measured (x and y, world frame, against time, single-support
+phases shaded); peak |torque| per joint against its limit; vertical ground reaction force per foot
+against time with the limit line; for the drawer task, ``drawer_figures``. Then every other field of
+report.json by a human name, its unit and its key, nested values as small tables.
 """
 
 from __future__ import annotations
 
+import base64
 import html
 import json
 from pathlib import Path
@@ -19,26 +23,29 @@ import numpy as np
 from robot_ctrl.eval.reports.drawer_figures import drawer_figures
 from robot_ctrl.eval.reports.figures import figure_png, shade_spans
 from robot_ctrl.eval.reports.log_figures import log_figures
+from robot_ctrl.eval.reports.page import figure_section, first_screen, page
+from robot_ctrl.eval.reports.run_summary import quantity, summarize, unit_of
 
-SUMMARY_KEYS = ("fell", "fall_time_s", "fall_reason", "time_s", "final_position_error_m", "final_yaw_error_deg",
-                "hand_error_m", "zmp_in_support_ratio", "zmp_error_rms_m", "zmp_error_max_m", "zmp_lateral_std_m",
-                "com_error_rms_m", "com_error_max_m", "step_length_error_m", "peak_torque_ratio", "peak_torque_joint",
-                "peak_grf_n", "grf_limit_n", "grf_over_limit", "dynfilter", "arms", "base_state",
-                "base_estimate_error", "rtf",
-                # the drawer task
-                "success", "distance_m", "slot", "goal_jumps", "actions", "planned_step_lengths_m",
-                "realized_step_lengths_m", "step_length_error_max_m", "comfort_distance_m", "final_pelvis_to_drawer_m",
-                "drawer_opening_m", "drawer_opening_required_m", "drawer_pull_force_peak_n", "grasp", "hand_to_handle_m",
-                "hand_to_object_m", "hand_to_object_synth_only_m", "peak_ankle_pitch_torque_ratio",
-                # a tick log (robot-ctrl log)
-                "ticks", "tracking_error_rms_rad", "tracking_error_max_rad", "tracking_error_max_joint", "safety",
-                "bus", "timing")
+#: Human names of the report.json keys whose own name would not say what they are.
+NAMES = {
+    "hand_to_object_synth_only_m": "Right hand to the object, by the synthesized arm angles alone",
+    "synthesis_step_length_errors_m": "Step-length errors of the synthesis against its own plan",
+    "actions": "Synthesized actions (1 normal cycle, 2 short cycle, 3 standing)",
+    "rtf": "Real-time factor (simulated s per wall-clock s)",
+    "replans": "Synthesis replans",
+    "dynfilter": "Dynamic filter",
+    "sources": "Primitive sources (periodic + extra)",
+    "base_ground_truth": "Reports from the simulator's base (ground truth)",
+    "grf_over_limit": "Vertical ground force over its limit",
+    "demanded_peak_torque_ratio": "Demanded torque / limit at the measured state",
+}
+ACRONYMS = {"zmp": "ZMP", "com": "CoM", "grf": "GRF", "wpg": "WPG", "dcm": "DCM", "ik": "IK"}
+VIDEO_FRAME_AT = 0.95  # share of the video's length where the report's frame is taken
 
 
 def render_report(run_dir: Path) -> Path:
     """Render ``run_dir/report.json`` (and ``timeseries.npz`` when the run wrote one) into a
     self-contained ``run_dir/report.html``; return its path (``robot-ctrl report DIR``)."""
-
     run_dir = Path(run_dir)
     path = run_dir / "report.json"
     if not path.is_file():
@@ -47,13 +54,22 @@ def render_report(run_dir: Path) -> Path:
     import matplotlib
 
     matplotlib.use("Agg")
-    figures = []
     series_path = run_dir / "timeseries.npz"
     series = dict(np.load(series_path)) if series_path.is_file() else None
     walked = series is not None and "zmp" in series
+    summary = summarize(report)
+    pictures = []
+    if walked:
+        pictures.append(("Top view: CoM and footprints, planned and realized (start frame)",
+                         _top_view(series, report)))
+    frame = _video_frame(run_dir, report.get("video"))
+    if frame is not None:
+        pictures.append((f"The video ({Path(report['video']).name}) near its end", frame))
+    if (run_dir / "phases.png").is_file():
+        pictures.append(("Gait phase differences", base64.b64encode((run_dir / "phases.png").read_bytes()).decode()))
+    figures = []
     if walked:
         figures.append(("ZMP: reference vs measured", _zmp_figure(series)))
-        figures.append(("Top view: CoM and footprints (start frame)", _top_view(series, report)))
     if "peak_torque_nm" in report and "torque_limit_nm" in report:
         figures.append(("Peak joint torques against their limits", _torque_figure(report)))
     if walked:
@@ -61,42 +77,89 @@ def render_report(run_dir: Path) -> Path:
         figures.extend(drawer_figures(series, report))
     if series is not None:
         figures.extend(log_figures(series))
-    rows = "".join(f"<tr><th>{html.escape(k)}</th><td>{_cell(report[k])}</td></tr>"
-                   for k in SUMMARY_KEYS if k in report)
-    body = "".join(f'<h2>{html.escape(title)}</h2><img alt="{html.escape(title)}" src="data:image/png;base64,{png}">'
-                   for title, png in figures)
-    title = f"robot_ctrl run: {report.get('robot', '')} {run_dir.name}"
-    page = f"""<!DOCTYPE html>
-<html lang="en"><head><meta charset="utf-8"><title>{html.escape(title)}</title>
-<style>body{{font-family:sans-serif;max-width:1000px;margin:2em auto;}} table{{border-collapse:collapse;}}
-th,td{{border:1px solid #ccc;padding:3px 8px;text-align:left;font-size:90%;}} img{{max-width:100%;}}</style>
-</head><body><h1>{html.escape(title)}</h1><table>{rows}</table>{body}</body></html>
-"""
+    shown = {f.key for f in summary.figures} | {"command", "video", "peak_torque_nm", "torque_limit_nm"}
+    details = "".join(f"<tr><td>{_name(k)} <span class=\"key\">{html.escape(k)}</span></td><td>{_value(k, v)}"
+                      "</td></tr>" for k, v in report.items() if k not in shown and v not in (None, [], {}))
+    body = (first_screen(summary, report.get("command"), pictures)
+            + "".join(figure_section(title, png) for title, png in figures)
+            + f'<h2>Every other field</h2><p>The raw report: <a href="report.json">report.json</a>.</p>'
+            + f'<div style="overflow-x:auto"><table>{details}</table></div>')
     out = run_dir / "report.html"
-    out.write_text(page)
+    out.write_text(page(summary.title, body))
     return out
 
 
-def _cell(value) -> str:
-    """A summary value as HTML: a dict holding dicts or more than 8 entries (the safety layer's
-    report) as a table of its own, a per-joint figure listed largest first; anything else as text."""
-    nested = isinstance(value, dict) and (len(value) > 8 or any(isinstance(v, dict) for v in value.values()))
-    if not nested:
-        return html.escape(_fmt(value))
-    if all(isinstance(v, (int, float)) for v in value.values()):
-        ranked = sorted(value.items(), key=lambda item: -item[1])
-        return html.escape(", ".join(f"{k} {_fmt(v)}" for k, v in ranked) + " (largest first)")
-    rows = "".join(f"<tr><th>{html.escape(str(k))}</th><td>{_cell(v)}</td></tr>" for k, v in value.items())
-    return f"<table>{rows}</table>"
+def _name(key: str) -> str:
+    if key in NAMES:
+        return html.escape(NAMES[key])
+    bare, _ = unit_of(key)
+    words = " ".join(ACRONYMS.get(w, w) for w in bare.split("_"))
+    return html.escape(words[:1].upper() + words[1:])
 
 
-def _fmt(value) -> str:
-    if isinstance(value, float):
-        return f"{value:.4g}"
-    if isinstance(value, list) and len(value) > 8:
-        arr = np.asarray(value, dtype=float)
-        return f"{len(value)} values, mean {arr.mean():+.4f}, max |·| {np.abs(arr).max():.4f}"
-    return json.dumps(value) if isinstance(value, (dict, list)) else str(value)
+def _value(key: str, value) -> str:
+    """A report value as HTML: numbers with the unit their key names, nested values as small
+    tables, long ones folded."""
+    _, unit = unit_of(key)
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if isinstance(value, (int, float)):
+        return html.escape(quantity(value, unit) if isinstance(value, float) or unit else str(value))
+    if isinstance(value, str):
+        return html.escape(value)
+    if value in ({}, []):
+        return "none"
+    if isinstance(value, dict):
+        items = [(k, v) for k, v in value.items() if v is not None]
+        if all(isinstance(v, (int, float)) and not isinstance(v, bool) for _, v in items) and len(items) > 8:
+            items.sort(key=lambda kv: -abs(kv[1]))  # per joint: largest first
+        rows = "".join(f"<tr><td>{html.escape(str(k))}</td><td>{_value(k if unit == '' else key, v)}"
+                       f"</td></tr>" for k, v in items)
+        table = f"<table>{rows}</table>"
+        return table if len(items) <= 8 else f"<details><summary>{len(items)} entries</summary>{table}</details>"
+    if isinstance(value, list):
+        if all(isinstance(v, dict) for v in value):
+            columns = list(dict.fromkeys(c for v in value for c in v))
+            if len(columns) > 8:  # a report per item (a group's robots): one folded table each
+                return "".join(f"<details><summary>{k}</summary>{_value(key, v)}</details>"
+                               for k, v in enumerate(value))
+            head = "".join(f"<th>{html.escape(c)}</th>" for c in columns)
+            rows = "".join("<tr>" + "".join(f"<td>{_value(c, v.get(c)) if v.get(c) is not None else ''}"
+                                            f"</td>" for c in columns) + "</tr>" for v in value)
+            table = f"<table><tr>{head}</tr>{rows}</table>"
+            return table if len(value) <= 6 else f"<details><summary>{len(value)} rows</summary>{table}</details>"
+        cells = "".join(f"<td class=\"num\">{_value(key, v)}</td>" for v in value)
+        table = f"<table><tr>{cells}</tr></table>"
+        return table if len(value) <= 12 else f"<details><summary>{len(value)} values</summary>{table}</details>"
+    return html.escape(json.dumps(value))
+
+
+def _video_frame(run_dir: Path, video: str | None) -> str | None:
+    """A frame of the run's video near its end, as PNG data (None: no video, or it cannot be read)."""
+    if not video:
+        return None
+    path = Path(video) if Path(video).is_file() else run_dir / Path(video).name
+    if not path.is_file():
+        return None
+    import io
+
+    import imageio_ffmpeg
+    import matplotlib.pyplot as plt
+
+    reader = imageio_ffmpeg.read_frames(str(path))
+    meta = next(reader)
+    wanted = int(VIDEO_FRAME_AT * meta["duration"] * meta["fps"])
+    frame = None
+    for k, frame in enumerate(reader):  # decoded one at a time: a whole video would not fit in memory
+        if k >= wanted:
+            break
+    reader.close()
+    if frame is None:
+        return None
+    width, height = meta["size"]
+    buffer = io.BytesIO()
+    plt.imsave(buffer, np.frombuffer(frame, np.uint8).reshape(height, width, 3), format="png")
+    return base64.b64encode(buffer.getvalue()).decode()
 
 
 def _zmp_figure(s) -> str:

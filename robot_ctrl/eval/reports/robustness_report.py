@@ -11,8 +11,8 @@ from pathlib import Path
 import numpy as np
 
 from robot_ctrl.eval.reports.figures import figure_png
-
-GOAL_TOLERANCE = 0.05  # [m] a survived push whose walk ended farther from its goal is marked in the table
+from robot_ctrl.eval.reports.page import KeyFigure, Summary, Verdict, first_screen, page
+from robot_ctrl.eval.reports.run_summary import GOAL_TOLERANCE
 
 
 def render_robustness(result: dict, path: Path) -> Path:
@@ -44,21 +44,27 @@ def render_robustness(result: dict, path: Path) -> Path:
     rows = "".join(_mismatch_row(m) for m in result["mismatch"])
     cell = {(c["direction_deg"], c["phase"]): c for c in cells}
     grid = "".join(f"<tr><th>{d}°</th>" + "".join(_grid_cell(cell[d, p]) for p in phases) + "</tr>" for d in directions)
-    page = f"""<!DOCTYPE html>
-<html lang="en"><head><meta charset="utf-8"><title>robot_ctrl robustness</title>
-<style>body{{font-family:sans-serif;max-width:900px;margin:2em auto;}} table{{border-collapse:collapse;margin:1em 0;}}
-th,td{{border:1px solid #ccc;padding:3px 8px;text-align:left;font-size:90%;}} img{{max-width:100%;}}</style>
-</head><body><h1>Robustness: {html.escape(result['walk'])}</h1>
-<p>Pushes of {result['push_duration_s']} s on the base, growing until the robot falls; 0: not even the smallest; {max(result['magnitudes_ns_per_kg']):g}: the largest tested, and it did not fall.
+    weakest = min(cells, key=lambda c: c["impulse_ns_per_kg"])
+    walked = sum(bool(m["walked"]) for m in result["mismatch"])
+    summary = Summary(
+        f"Robustness — {result['walk']}",
+        Verdict(walked == len(result["mismatch"]) if result["mismatch"] else None,
+                f"Every push direction and gait phase survived at least {weakest['impulse_ns_per_kg']:g} N·s/kg; "
+                f"{walked} of {len(result['mismatch'])} model mismatches walked"),
+        (KeyFigure("Smallest largest-survived push", f"{weakest['impulse_ns_per_kg']:g} N·s/kg at "
+                   f"{weakest['direction_deg']}°, {weakest['phase'].replace('_', ' ')}"),
+         KeyFigure("Largest push tested", f"{max(result['magnitudes_ns_per_kg']):g} N·s/kg"),
+         KeyFigure("Model mismatches walked", f"{walked} of {len(result['mismatch'])}", "all",
+                   walked == len(result["mismatch"]))))
+    body = (first_screen(summary, result.get("command"), [("largest survived push by direction", figure)])
+            + f"""<p>Pushes of {result['push_duration_s']} s on the base, growing until the robot falls; 0: not even the smallest; {max(result['magnitudes_ns_per_kg']):g}: the largest tested, and it did not fall.
 A walk that survived its push but ended more than {GOAL_TOLERANCE * 100:g} cm from its goal says so.
 In brackets, the largest push the linear inverted pendulum could capture by stepping within the controller's reach, from the state the push met (measured): first with a swing foot that may land as early as 0.3 s after lift-off, a push above it cannot be caught without a hip strategy or a crossing step; then with the walk's own step timing, a push above that needs the step timing to change (docs/robustness.md).</p>
-<img alt="largest survived push" src="data:image/png;base64,{figure}">
 <table><tr><th>direction</th>{''.join(f'<th>{html.escape(p)}</th>' for p in phases)}</tr>{grid}</table>
-<h2>Model mismatch</h2><table><tr><th>run</th><th>result</th><th>final error</th><th>error</th></tr>{rows}</table>
-</body></html>
-"""
+<h2>Model mismatch</h2><table><tr><th>run</th><th>result</th><th>final error</th><th>error</th></tr>{rows}</table>""")
+    page_text = page(summary.title, body)
     path = Path(path)
-    path.write_text(page)
+    path.write_text(page_text)
     return path
 
 
