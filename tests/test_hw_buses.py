@@ -162,6 +162,7 @@ def test_servos_without_body_sensors_count_their_time_from_configure(talos):
     try:
         backend.configure()
         backend.activate()
+        backend.write(hold(talos, backend.read()))  # the first write's one-time costs (about 0.2 s) out of the wait
         first = backend.read().t
         time.sleep(0.2)
         backend.write(hold(talos, backend.read()))
@@ -459,22 +460,33 @@ def test_close_after_an_estop_or_a_fault_disables_every_motor(talos, mit, monkey
     assert not emulator.enabled.any()
 
 
-def test_estop_with_a_failing_bus_still_latches(talos, mit, monkeypatch):
+def test_one_failing_bus_leaves_every_other_bus_damped_then_disabled(talos, mit, monkeypatch):
+    """A send that fails on one of the four buses: the e-stop still latches, every motor on the other
+    three gets damping, and closing disables them; the error names the failing bus and its joints."""
     import can
 
     hw, emulator, clock, state = mit
     for _ in range(5):
         state = tick(hw, clock, hold(talos, state))
+    assert emulator.enabled.all() and emulator.kp.min() > 0
 
-    def broken(self, msg, timeout=None):
+    def broken(msg, timeout=None):
         raise can.CanOperationError("Transmit buffer full")
 
-    monkeypatch.setattr(type(hw.backend._buses["can0"]), "send", broken)
-    with pytest.raises(can.CanOperationError):
+    monkeypatch.setattr(hw.backend._buses["can0"], "send", broken)
+    on_can0 = np.array([m.bus == "can0" for m in hw.backend.config.motors])
+    with pytest.raises(RuntimeError, match=r"^CAN bus can0 \(leg_left_1_joint, .*\): CanOperationError") as failed:
         hw.estop()
+    assert "can1" not in str(failed.value)
     assert hw.state is LifecycleState.ESTOP and hw.backend.state is LifecycleState.ESTOP
     with pytest.raises(LifecycleError):
         hw.write(hold(talos, state))
+    time.sleep(0.05)  # the emulated drives take their frames
+    assert np.all(emulator.kp[~on_can0] == 0) and np.all(emulator.kd[~on_can0] > 0)  # damping
+    assert np.all(emulator.kp[on_can0] > 0)  # can0's frames never went out
+    hw.close()
+    time.sleep(0.05)
+    assert not emulator.enabled[~on_can0].any() and emulator.enabled[on_can0].all()
 
 
 def test_ctrl_c_mid_walk_sends_damping_then_disables(monkeypatch, capsys):
@@ -949,3 +961,102 @@ def test_each_shipped_bus_config_fits_its_robot(path):
     for motor, effort, kp, kd in zip(config.motors, robot.effort, robot.kp, robot.kd):
         ranges = config.models[motor.model]
         assert ranges["torque"][1] >= effort and ranges["kp"][1] >= kp and ranges["kd"][1] >= kd, motor.joint
+
+
+def test_one_failing_dynamixel_port_leaves_the_other_ports_damped_then_torque_off(talos):
+    """The legs' port fails: the e-stop's damping and the close's torque off still reach every servo
+    on the other port; the error names the failing port."""
+    hw, emulator, clock = configured_dynamixel(talos, ports=two_ports)
+    try:
+        hw.activate()
+        state = hw.read()
+        for _ in range(5):
+            state = tick(hw, clock, hold(talos, state))
+        legs = next(port for port in hw.backend.ports if port.name == "legs")
+        on_legs = np.array([m.bus == "legs" for m in hw.backend.config.motors])
+        assert emulator.torque_enable.all() and emulator.gains[:, 2].min() > 0
+
+        def broken(*args):
+            raise OSError("the legs' port is unplugged")
+
+        for method in ("write_gains", "write_goals", "_write"):
+            setattr(legs, method, broken)
+        with pytest.raises(RuntimeError, match=r"\(legs\): the legs' port is unplugged") as failed:
+            hw.estop()
+        assert "(upper)" not in str(failed.value)
+        start = time.monotonic()  # a Sync Write has no reply: the emulated servos take it when they read it
+        while np.any(emulator.gains[~on_legs, 2]) and time.monotonic() - start < 2.0:
+            time.sleep(0.01)
+        assert np.all(emulator.gains[~on_legs, 2] == 0) and np.all(emulator.gains[~on_legs, 0] > 0)  # P 0, D on
+        assert np.all(emulator.gains[on_legs, 2] > 0)
+        hw.close()
+        assert not emulator.torque_enable[~on_legs].any() and emulator.torque_enable[on_legs].all()
+    finally:
+        hw.close()
+        emulator.close()
+
+
+@pytest.fixture
+def sigterm_interrupts():
+    """SIGTERM raises KeyboardInterrupt, as robot-ctrl's handler makes it."""
+    import signal
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt(signal.Signals(signum).name)
+
+    previous = signal.signal(signal.SIGTERM, interrupt)
+    yield
+    signal.signal(signal.SIGTERM, previous)
+
+
+def test_a_second_sigterm_inside_close_still_damps_and_disables_every_drive(talos, mit, monkeypatch,
+                                                                           sigterm_interrupts):
+    """The first SIGTERM ended the run; a second one arrives while close() sends damping: the damping
+    and the disable still reach every drive, then the interrupt goes on."""
+    import os
+    import signal
+
+    hw, emulator, clock, state = mit
+    for _ in range(5):
+        state = tick(hw, clock, hold(talos, state))
+    send = hw.backend._send_each
+
+    def interrupted(frames):  # the signal comes in the middle of the damping frames
+        os.kill(os.getpid(), signal.SIGTERM)
+        return send(frames)
+
+    monkeypatch.setattr(hw.backend, "_send_each", interrupted)
+    with pytest.raises(KeyboardInterrupt, match="SIGTERM"):
+        hw.close()
+    time.sleep(0.05)
+    assert np.all(emulator.kp == 0) and not emulator.enabled.any()
+
+
+def test_a_signal_inside_activate_leaves_every_drive_damped_and_disabled(talos, monkeypatch, sigterm_interrupts):
+    """SIGTERM while activate() enables the drives (after the enable frames, before the replies):
+    the layer and the backend latch FAULT, and closing damps and disables every drive."""
+    import os
+    import signal
+
+    hw, emulator, clock = configured_mit(talos)
+    try:
+        collect = hw.backend._collect
+
+        def interrupted(*args, **kwargs):
+            os.kill(os.getpid(), signal.SIGTERM)
+            return collect(*args, **kwargs)
+
+        monkeypatch.setattr(hw.backend, "_collect", interrupted)
+        with pytest.raises(KeyboardInterrupt):
+            hw.activate()
+        monkeypatch.setattr(hw.backend, "_collect", collect)
+        time.sleep(0.05)
+        assert emulator.enabled.all()  # the enable frames went out
+        assert hw.state is LifecycleState.FAULT and hw.backend.state is LifecycleState.FAULT
+        hw.close()
+        time.sleep(0.05)
+        assert np.all(emulator.kp == 0) and np.all(emulator.kd > 0)  # damping was sent ...
+        assert not emulator.enabled.any()  # ... and every drive disabled
+    finally:
+        hw.close()
+        emulator.close()

@@ -115,6 +115,14 @@ def _require(cond: bool, message: str, path: Path) -> None:
         raise ConfigError(f"{path.name}: {message}")
 
 
+GEAR_RATIO = (0.1, 1000.0)  # motor turns per joint turn: direct drive to the strongest harmonic drives, with margin
+
+
+def _finite(x) -> bool:
+    """A finite number as YAML gives it (a bool is not one)."""
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and bool(np.isfinite(x))
+
+
 def load_bus_config(name_or_path: str | Path, joint_names: tuple[str, ...]) -> BusConfig:
     """Load ``configs/hw/<name>.yaml`` (or a path) for a robot with these joints (in order)."""
     path = Path(name_or_path)
@@ -141,8 +149,8 @@ def load_bus_config(name_or_path: str | Path, joint_names: tuple[str, ...]) -> B
         for model, ranges in models.items():
             for key in ("position", "velocity", "kp", "kd", "torque"):
                 r = ranges.get(key) if isinstance(ranges, dict) else None
-                _require(isinstance(r, list) and len(r) == 2 and all(isinstance(x, (int, float)) for x in r)
-                         and r[0] < r[1], f"models.{model}.{key} must be [low, high] with low < high", path)
+                _require(isinstance(r, list) and len(r) == 2 and all(_finite(x) for x in r) and r[0] < r[1],
+                         f"models.{model}.{key} must be [low, high], finite numbers with low < high", path)
             _require(ranges.get("reply", "mit6") in REPLY_FORMATS,
                      f"models.{model}.reply must be one of {', '.join(REPLY_FORMATS)}", path)
     else:
@@ -196,19 +204,20 @@ def load_bus_config(name_or_path: str | Path, joint_names: tuple[str, ...]) -> B
         _require(bus in buses, f"joints.{joint}.bus {bus!r} is not one of {sorted(buses)}", path)
         motor_id = entry.get("id")
         limit = 127 if backend == "mit_can" else 252
-        _require(isinstance(motor_id, int) and 1 <= motor_id <= limit, f"joints.{joint}.id must be in [1, {limit}]",
-                 path)
+        _require(isinstance(motor_id, int) and not isinstance(motor_id, bool) and 1 <= motor_id <= limit,
+                 f"joints.{joint}.id must be an integer in [1, {limit}]", path)
         _require((bus, motor_id) not in seen, f"joints.{joint}: id {motor_id} is used twice on bus {bus}", path)
         seen.add((bus, motor_id))
         model = entry.get("model")
         _require(model in models, f"joints.{joint}.model {model!r} is not one of {sorted(models)}", path)
         direction = entry.get("direction", 1)
-        _require(direction in (1, -1), f"joints.{joint}.direction must be 1 or -1", path)
-        zero = entry.get("zero_offset", 0.0)
-        _require(isinstance(zero, (int, float)) and np.isfinite(zero), f"joints.{joint}.zero_offset must be finite",
+        _require(not isinstance(direction, bool) and direction in (1, -1), f"joints.{joint}.direction must be 1 or -1",
                  path)
+        zero = entry.get("zero_offset", 0.0)
+        _require(_finite(zero), f"joints.{joint}.zero_offset must be a finite number [rad]", path)
         gear = entry.get("gear_ratio", 1.0)
-        _require(isinstance(gear, (int, float)) and gear > 0, f"joints.{joint}.gear_ratio must be > 0", path)
+        _require(_finite(gear) and GEAR_RATIO[0] <= gear <= GEAR_RATIO[1],
+                 f"joints.{joint}.gear_ratio must be a number in [{GEAR_RATIO[0]:g}, {GEAR_RATIO[1]:g}]", path)
         motors.append(MotorMap(joint, bus, motor_id, model, int(direction), float(zero), float(gear)))
     config = BusConfig(backend, buses, models, tuple(motors), path, float(timeout), missed, float(drive_timeout),
                        sensors, acknowledged)

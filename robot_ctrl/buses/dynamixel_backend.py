@@ -138,8 +138,18 @@ class DynamixelBackend(HardwareAdapter):
         return limits
 
     def _each_port(self, call) -> list:
-        """``call(port)`` on every port, side by side; the results in port order."""
-        return list(self._pool.map(call, self.ports))
+        """``call(port)`` on every port, side by side; the results in port order. A port that fails
+        does not stop the others: every call runs to its end, then the failures raise together."""
+        futures = [self._pool.submit(call, port) for port in self.ports]
+        results, failed = [], []
+        for port, future in zip(self.ports, futures):
+            try:
+                results.append(future.result())
+            except Exception as exc:  # the SDK's and the OS's errors alike: reported, not lost
+                failed.append(f"{port.device} ({port.name}): {exc}")
+        if failed:
+            raise RuntimeError("; ".join(failed))
+        return results
 
     def _on_activate(self) -> None:
         self._check_servos(watchdog=False)
@@ -156,8 +166,8 @@ class DynamixelBackend(HardwareAdapter):
         self._ticks = 0
 
     def _on_deactivate(self) -> None:
-        for m in self.config.motors:
-            self._port_of[m.bus].write(m, dxl.TORQUE_ENABLE, 0, 1)
+        """Torque off on every servo of every port, whatever fails on another."""
+        self._each_port(lambda port: port.torque_off())
 
     def _on_disable(self) -> None:
         self._on_deactivate()
@@ -209,18 +219,26 @@ class DynamixelBackend(HardwareAdapter):
         return JointState(t=self._time, q=q, dq=dq, tau=tau, temperature=self._temperature.copy(), **fields)
 
     def _send(self, cmd: JointCommand) -> None:
+        """The command's gains (when they changed) and goals on every port, a port's failure not
+        keeping them from the others."""
         p, v, kp, kd, t = self.config.to_motor(cmd.q, cmd.dq, cmd.kp, cmd.kd, cmd.tau_ff)
         kp_reg = np.clip(np.round(kp / self.units.kp), 0, dxl.GAIN_MAX).astype(int)
         kd_reg = np.clip(np.round(kd / self.units.kd), 0, dxl.GAIN_MAX).astype(int)
         gains = (tuple(kp_reg), tuple(kd_reg))
-        if gains != self._gains:
-            self._each_port(lambda port: port.write_gains(kp_reg, kd_reg))
-            self._gains = gains
         kp_q = kp_reg * self.units.kp
         # Feedforward folded into the goal (see the module docstring); without stiffness, hold the goal.
         goal = np.where(kp_q > 0, p + (t + kd_reg * self.units.kd * v) / np.where(kp_q > 0, kp_q, 1.0), self._p)
         raw = np.round(goal / self.units.position).astype(np.int64)
-        self._each_port(lambda port: port.write_goals(raw))
+        new_gains = gains != self._gains
+
+        def send(port: DynamixelPort) -> None:
+            if new_gains:
+                port.write_gains(kp_reg, kd_reg)
+            port.write_goals(raw)
+
+        self._gains = None  # unknown until every port has taken them
+        self._each_port(send)
+        self._gains = gains
 
     def _sync_read(self) -> None:
         """Every port's present state; if a servo did not answer, the previous values and time stay."""

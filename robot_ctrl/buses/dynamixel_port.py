@@ -100,6 +100,20 @@ class DynamixelPort:
         if problem:
             raise OSError(f"{motor.joint} (servo {motor.id}): writing {value} at address {address} failed ({problem})")
 
+    def torque_off(self) -> None:
+        """Torque Enable 0 on every servo of this port, each tried whatever another answers; the
+        servos that did not take it raise together."""
+        failed = []
+        for m in self.motors:
+            try:
+                problem = self._write(m, dxl.TORQUE_ENABLE, 0, 1)
+            except Exception as exc:  # a port that fails outright: the next servo is still tried
+                problem = f"{type(exc).__name__}: {exc}"
+            if problem:
+                failed.append(f"{m.joint} (servo {m.id}): {problem}")
+        if failed:
+            raise OSError("torque off failed for " + ", ".join(failed))
+
     def read(self, motor: MotorMap, address: int, size: int) -> int:
         read = {1: self.packet.read1ByteTxRx, 2: self.packet.read2ByteTxRx, 4: self.packet.read4ByteTxRx}[size]
         value, result, error = read(self.port, motor.id, address)

@@ -160,29 +160,38 @@ class MitCanBackend(HardwareAdapter):
             if not silent.any():
                 break
         if silent.any():
-            self._broadcast(DISABLE)
-            self._collect(gap=None)
+            self._on_deactivate()
             raise RuntimeError(f"no reply from {self._joints(silent)} on enable: check their power, wiring and "
                                "CAN ids (all motors disabled again)")
         if self._faults:
-            self._broadcast(DISABLE)
-            self._collect(gap=None)
+            faults = dict(self._faults)
+            self._on_deactivate()
+            self._faults = faults
             self._raise_faults()
 
     def _on_deactivate(self) -> None:
-        self._broadcast(DISABLE)
+        """Disable every motor on every bus, whatever fails on another; the failures raise together."""
+        failed = self._broadcast(DISABLE)
         self._collect(gap=None)
         self._faults.clear()
+        self._raise_failed(failed)
 
     def _on_disable(self) -> None:
         self._on_deactivate()
 
     def _on_estop(self) -> None:
+        """Damping to every motor on every bus, a bus-off one too (its frames may yet go out), whatever
+        fails on another; the failures raise together."""
         if not self._buses:
             return
+        self._drain()
         q, _, _ = self.config.to_joint(self._p, self._v, self._t)
         zero = np.zeros(self.nj)
-        self._send_commands(JointCommand(q=q, dq=zero, kp=zero, kd=self.kd_damping, tau_ff=zero), check=False)
+        failed = self._send_each(self._command_frames(JointCommand(q=q, dq=zero, kp=zero, kd=self.kd_damping,
+                                                                   tau_ff=zero)))
+        self._collect(expect_enabled=True)
+        self._faults.clear()
+        self._raise_failed(failed)
 
     def _on_close(self) -> None:
         for bus in self._buses.values():
@@ -194,7 +203,7 @@ class MitCanBackend(HardwareAdapter):
         motor = next((m for m in self.config.motors if m.joint == joint), None)
         if motor is None:
             raise KeyError(f"{joint!r} is not in {self.config.path.name}")
-        self._buses[motor.bus].send(can.Message(arbitration_id=motor.id, data=SET_ZERO, is_extended_id=False))
+        self._raise_failed(self._send_each([(self.config.motors.index(motor), SET_ZERO)]))
         self._collect()
 
     # Read / write ---------------------------------------------------------------------------------
@@ -208,22 +217,17 @@ class MitCanBackend(HardwareAdapter):
         return JointState(t=self._time if self._time is not None else 0.0, q=q, dq=dq, tau=tau,
                           temperature=temperature, **fields)
 
-    def _send_commands(self, cmd: JointCommand, check: bool = True) -> None:
-        """Send ``cmd`` and take the replies; with ``check``, a drive fault, a bus-off or a motor
-        past ``max_missed_replies`` raises."""
+    def _send_commands(self, cmd: JointCommand) -> None:
+        """Send ``cmd`` and take the replies; a bus-off, a failed send, a drive fault or a motor past
+        ``max_missed_replies`` raises."""
         self._drain()
         off = [name for name, bus in self._buses.items() if bus.state is can.BusState.ERROR]
         if off:
             raise RuntimeError(f"CAN bus {', '.join(off)} is bus-off (error state): check wiring and termination; "
                                "with restart-ms set the interface restarts itself")
-        p, v, kp, kd, t = self.config.to_motor(cmd.q, cmd.dq, cmd.kp, cmd.kd, cmd.tau_ff)
-        for i, m in enumerate(self.config.motors):
-            data = pack_command(p[i], v[i], kp[i], kd[i], t[i], self.ranges[i])
-            self._buses[m.bus].send(can.Message(arbitration_id=m.id, data=data, is_extended_id=False))
+        failed = self._send_each(self._command_frames(cmd))
         replied = self._collect(expect_enabled=True)
-        if not check:
-            self._faults.clear()
-            return
+        self._raise_failed(failed)
         self._raise_faults()
         self.missed = np.where(replied, 0, self.missed + 1)
         lost = self.missed > self.config.max_missed_replies
@@ -245,10 +249,35 @@ class MitCanBackend(HardwareAdapter):
     def _joints(self, mask: np.ndarray) -> str:
         return ", ".join(self.config.motors[i].joint for i in np.flatnonzero(mask))
 
-    def _broadcast(self, frame: bytes, motors: np.ndarray | None = None) -> None:
-        for i, m in enumerate(self.config.motors):
-            if motors is None or motors[i]:
-                self._buses[m.bus].send(can.Message(arbitration_id=m.id, data=frame, is_extended_id=False))
+    def _command_frames(self, cmd: JointCommand) -> list[tuple[int, bytes]]:
+        p, v, kp, kd, t = self.config.to_motor(cmd.q, cmd.dq, cmd.kp, cmd.kd, cmd.tau_ff)
+        return [(i, pack_command(p[i], v[i], kp[i], kd[i], t[i], self.ranges[i])) for i in range(self.nj)]
+
+    def _broadcast(self, frame: bytes, motors: np.ndarray | None = None) -> dict[str, str]:
+        """``frame`` to every motor (or those ``motors`` marks); the buses whose send failed."""
+        return self._send_each([(i, frame) for i in range(self.nj) if motors is None or motors[i]])
+
+    def _send_each(self, frames: list[tuple[int, bytes]]) -> dict[str, str]:
+        """Send each (motor index, frame) on the motor's bus. A bus whose send fails gets no more of
+        these frames; every other bus gets all of its own. Returns bus → why it failed."""
+        failed: dict[str, str] = {}
+        for i, data in frames:
+            m = self.config.motors[i]
+            if m.bus in failed:
+                continue
+            try:
+                self._buses[m.bus].send(can.Message(arbitration_id=m.id, data=data, is_extended_id=False))
+            except (can.CanError, OSError) as exc:
+                failed[m.bus] = f"{type(exc).__name__}: {exc}"
+        return failed
+
+    def _raise_failed(self, failed: dict[str, str]) -> None:
+        if failed:
+            raise RuntimeError("; ".join(f"CAN bus {name} ({self._joints(self._on_bus(name))}): {why}"
+                                         for name, why in failed.items()))
+
+    def _on_bus(self, name: str) -> np.ndarray:
+        return np.array([m.bus == name for m in self.config.motors])
 
     def _collect(self, asked: np.ndarray | None = None, expect_enabled: bool = False,
                  gap: float | None = REPLY_GAP) -> np.ndarray:
@@ -260,12 +289,17 @@ class MitCanBackend(HardwareAdapter):
         asked = np.ones(self.nj, dtype=bool) if asked is None else asked
         replied = np.zeros(self.nj, dtype=bool)
         deadline = self.clock() + self.reply_timeout
+        failed: dict[str, str] = {}
         for name, bus in self._buses.items():
             expected = sum(1 for i, m in enumerate(self.config.motors) if m.bus == name and asked[i])
             got, bus_deadline = 0, deadline
             while got < expected:
                 remaining = bus_deadline - self.clock()
-                msg = bus.recv(timeout=max(remaining, 0.0))  # past the deadline: what is already queued
+                try:
+                    msg = bus.recv(timeout=max(remaining, 0.0))  # past the deadline: what is already queued
+                except (can.CanError, OSError) as exc:  # this bus only: the others' replies are still taken
+                    failed[name] = f"{type(exc).__name__}: {exc}"
+                    break
                 if msg is None:
                     break
                 bus_deadline = deadline if gap is None else min(deadline, self.clock() + gap)
@@ -294,4 +328,5 @@ class MitCanBackend(HardwareAdapter):
             self._body = self.body_sensors() if self.body_sensors is not None else None
             self._time = self._body.t if self._body is not None else self.clock() - self._t0
         self.missing_replies += int((asked & ~replied).sum())
+        self._raise_failed(failed)
         return replied

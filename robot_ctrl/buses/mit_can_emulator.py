@@ -64,6 +64,8 @@ class MitCanEmulator:
         self._last_command = np.zeros(self.nj)  # [s] wall clock of each motor's last frame
         self._index = {(m.bus, m.id): i for i, m in enumerate(config.motors)}
         self.enabled = np.zeros(self.nj, dtype=bool)
+        self.kp = np.zeros(self.nj)  # the gains of each motor's last command, motor side, as it acts on them
+        self.kd = np.zeros(self.nj)
         self.encoder_zero = np.zeros(self.nj)  # set by the set-zero frame [rad, motor side]
         self.received: list[tuple[float, JointCommand]] = []
         self.drop_replies = False
@@ -141,6 +143,7 @@ class MitCanEmulator:
                     self.encoder_zero[i] += self._motor_position(i)
                 elif len(data) == 8:
                     self._pending[i] = unpack_command(data, self.ranges[i])
+                    self.kp[i], self.kd[i] = self._pending[i][2:4]
                     if all(c is not None for c in self._pending):
                         self._step()  # answers every motor's command with the state after the step
                     continue

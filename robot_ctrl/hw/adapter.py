@@ -5,7 +5,8 @@ Lifecycle (after ros2_control)::
     UNCONFIGURED --configure--> INACTIVE --activate--> ACTIVE --deactivate--> INACTIVE
     any state --estop--> ESTOP (latched)        a backend failure --> FAULT
     ESTOP or FAULT --reset--> INACTIVE (explicit; activate again to move)
-    any state --close--> closed (no further calls; from ESTOP or FAULT the motors are disabled first)
+    any state --close--> closed (no further calls; from ESTOP or FAULT the motors are damped and
+                         disabled first; Ctrl-C and SIGTERM are held until it is done)
 
 ``read()`` works once configured; ``write()`` only while ACTIVE. Commands are validated here,
 before a backend sees them, so a NaN or a malformed array never reaches an actuator.
@@ -18,6 +19,7 @@ from abc import ABC, abstractmethod
 
 import numpy as np
 
+from robot_ctrl.hw.held_signals import signals_held
 from robot_ctrl.hw.types import JointCommand, JointState, LifecycleState
 
 S = LifecycleState
@@ -111,18 +113,25 @@ class HardwareAdapter(ABC):
         self._state = S.INACTIVE
 
     def close(self) -> None:
-        """Release the backend. After an e-stop or a fault, which left the servos in damping, every
-        motor is disabled first (best effort: a bus that fails then is logged, and closed anyway)."""
+        """Release the backend. After an e-stop or a fault every motor is sent damping (again: a
+        fault may have come before any) and then disabled, each step best effort (a bus that fails
+        is logged, and closed anyway). Ctrl-C and SIGTERM wait until it is done."""
         if self._closed:
             return
-        try:
-            if self._state in (S.ESTOP, S.FAULT):
-                self._on_disable()
-        except Exception:
-            logger.exception("close: disabling the motors after %s failed", self._state.value)
-        finally:
-            self._on_close()
-            self._closed = True
+        with signals_held():
+            try:
+                if self._state in (S.ESTOP, S.FAULT):
+                    self._safe_stop()
+            finally:
+                self._on_close()
+                self._closed = True
+
+    def _safe_stop(self) -> None:
+        for step, call in (("damping", self._on_estop), ("disabling the motors", self._on_disable)):
+            try:
+                call()
+            except Exception:
+                logger.exception("close: %s after %s failed", step, self._state.value)
 
     def read(self) -> JointState:
         self._require("read", S.INACTIVE, S.ACTIVE, S.FAULT, S.ESTOP)
@@ -144,9 +153,11 @@ class HardwareAdapter(ABC):
         return self._guarded(self._run_ahead)
 
     def _guarded(self, call):
+        """``call()``; whatever stops it (a Ctrl-C halfway through enabling the drives too) latches FAULT,
+        from which :meth:`close` brings every motor to its safe state."""
         try:
             return call()
-        except Exception:
+        except BaseException:
             self._state = S.FAULT
             raise
 
