@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import logging
 import time
 from contextlib import contextmanager
 from pathlib import Path
@@ -44,17 +45,22 @@ from robot_ctrl.sim.mujoco_world import MujocoWorld
 from robot_ctrl.sim.prop import Prop
 from robot_ctrl.sim.robot_process import RobotProcess
 
+logger = logging.getLogger("robot_ctrl.backends")
+
 
 @contextmanager
 def open_hardware(kind: HardwareKind | str, robot: RobotModel, bus_config: str | None = None, viewer: bool = False,
                   control_dt: float = 0.005, video: Path | None = None,
                   disturbances: Disturbances = Disturbances(),
-                  prop: Prop | None = None,
-                  clock: Callable[[], float] = time.monotonic) -> Iterator[SafetyLayer]:
+                  prop: Prop | None = None, clock: Callable[[], float] = time.monotonic,
+                  allow_drives_without_timeout: bool = False) -> Iterator[SafetyLayer]:
     """The adapter for ``kind``; emulators are started before and stopped after the block.
     ``prop``: a prop placed in the robot's simulated world (``sim/prop.py``), whose readings arrive
     in ``JointState.scene`` (e.g. the walk-and-reach task's drawer cabinet, ``sim/drawer_cabinet.py``);
-    ``clock``: what real servos' backend and safety layer measure time with."""
+    ``clock``: what real servos' backend and safety layer measure time with;
+    ``allow_drives_without_timeout``: real drives with no command timeout of their own (which hold
+    their last command if this process dies) may be enabled; on servo buses the joints that would
+    hold are logged either way."""
     kind = HardwareKind.parse(kind)
     if disturbances.reply_loss and kind is not HardwareKind.MIT_CAN_EMULATED:
         raise ValueError(f"reply loss acts on the emulated MIT-CAN bus (--hw mit-can-emulated), not on {kind.value}")
@@ -69,7 +75,8 @@ def open_hardware(kind: HardwareKind | str, robot: RobotModel, bus_config: str |
         return
     limits = SafetyLimits.from_robot(robot, control_dt)
     if kind.real:
-        hw = SafetyLayer(_bus_backend(kind, robot, bus_config, clock), limits, clock=clock)
+        hw = SafetyLayer(_bus_backend(kind, robot, bus_config, clock, allow_drives_without_timeout), limits,
+                         clock=clock)
         hw.start_watchdog()
         try:
             yield hw
@@ -97,6 +104,7 @@ def open_hardware(kind: HardwareKind | str, robot: RobotModel, bus_config: str |
                                                     for name, port in config.buses.items()})
         backend = DynamixelBackend(config, robot.kd, body_sensors=emulator.body_state, effort=robot.effort,
                                    velocity=robot.velocity_limit)
+    _say_what_holds(backend, robot)
     hw = SafetyLayer(backend, limits, clock=emulator.clock)
     hw.start_watchdog()  # a bus has no lock-step: a stalled controller must be caught from outside
     try:
@@ -106,9 +114,10 @@ def open_hardware(kind: HardwareKind | str, robot: RobotModel, bus_config: str |
         emulator.close()
 
 
-def _bus_backend(kind: HardwareKind, robot: RobotModel, bus_config: str | None, clock: Callable[[], float]):
+def _bus_backend(kind: HardwareKind, robot: RobotModel, bus_config: str | None, clock: Callable[[], float],
+                 allow_drives_without_timeout: bool):
     """The backend of real drives, on the interfaces the bus config names, with the body sensors it
-    names (if any)."""
+    names (if any); drives with no command timeout of their own only when allowed."""
     if bus_config is None:
         raise ConfigError(f"--hw {kind.value} needs --bus-config: the YAML naming your buses, CAN ids, directions "
                           f"and zero offsets (start from {shipped_bus_configs()})")
@@ -117,11 +126,30 @@ def _bus_backend(kind: HardwareKind, robot: RobotModel, bus_config: str | None, 
     if kind is HardwareKind.MIT_CAN:
         from robot_ctrl.buses.mit_can_backend import MitCanBackend
 
-        return MitCanBackend(config, robot.kd, body_sensors=sensors, clock=clock)
-    from robot_ctrl.buses.dynamixel_backend import DynamixelBackend
+        backend = MitCanBackend(config, robot.kd, body_sensors=sensors, clock=clock)
+    else:
+        from robot_ctrl.buses.dynamixel_backend import DynamixelBackend
 
-    return DynamixelBackend(config, robot.kd, body_sensors=sensors, clock=clock, effort=robot.effort,
-                            velocity=robot.velocity_limit)
+        backend = DynamixelBackend(config, robot.kd, body_sensors=sensors, clock=clock, effort=robot.effort,
+                                   velocity=robot.velocity_limit)
+    holding = _say_what_holds(backend, robot)
+    if holding and not allow_drives_without_timeout:
+        raise ConfigError(f"--hw {kind.value}: {len(holding)} drives have no command timeout of their own "
+                          f"({', '.join(holding[:3])}{', ...' if len(holding) > 3 else ''}): if this process dies "
+                          "they hold their last command. Pass --allow-drives-without-timeout to run them anyway")
+    return backend
+
+
+def _say_what_holds(backend, robot: RobotModel) -> list[str]:
+    """Log which joints would hold their last command if this process died, and return them."""
+    stopping = set(backend.drive_timeout_joints)
+    holding = [j for j in robot.joint_names if j not in stopping]
+    if holding:
+        logger.warning("if this process dies, %d joints hold their last command (no drive timeout): %s",
+                       len(holding), ", ".join(holding))
+    else:
+        logger.warning("if this process dies, every drive stops by itself (its command timeout)")
+    return holding
 
 
 @contextmanager

@@ -74,8 +74,12 @@ COMMON = [  # (edit, the refusal's text; None: taken)
     (set_key("body_sensors", value="my_robot.sensors:open_sensors"), None),
     (set_key("body_sensors", value="MyRobot.IMU_v2:Open"), None),
     (set_key("body_sensors", value="open_sensors"), "body_sensors = 'open_sensors' must be module:function"),
-    (set_key("without_drive_timeout", value="bench test only"), None),
-    (set_key("without_drive_timeout", value="bench only"), "without_drive_timeout must say, in a few words, why"),
+    (set_key("without_drive_timeout", value={"why": "bench test only", "joints": [LEG]}), None),
+    *((set_key("without_drive_timeout", value=v), "without_drive_timeout must give why (in a few words)")
+      for v in ("bench test only", {"why": "bench only", "joints": [LEG]}, {"why": "bench test only"},
+                {"why": "bench test only", "joints": LEG}, {"why": "bench test only", "joints": [LEG], "all": True})),
+    (set_key("without_drive_timeout", value={"why": "bench test only", "joints": ["tail_joint"]}),
+     "without_drive_timeout.joints are not in the robot: ['tail_joint']"),
     (set_key("joints", value="all"), "joints must map joint names to motors"),
     (drop_key("joints", LEG), f"joints missing from the mapping: ['{LEG}']"),
     (set_key("joints", "tail_joint", value={"id": 99}), "joints not in the robot: ['tail_joint']"),
@@ -173,7 +177,9 @@ def test_what_a_config_sets_is_what_the_drivers_get(tmp_path, talos):
     assert (leg.bus, leg.id, leg.model, leg.direction, leg.zero_offset, leg.gear_ratio) == \
         ("can0", 1, "leg", -1, 0.5, 9.0)
     assert config.reply_format(leg) == "mit6" and [m.joint for m in config.motors] == list(talos.joint_names)
-    assert config.without_drive_timeout == shipped("talos_mit_can")["without_drive_timeout"]
+    waiver = shipped("talos_mit_can")["without_drive_timeout"]
+    assert (config.without_drive_timeout.why, config.without_drive_timeout.joints) == (waiver["why"],
+                                                                                      tuple(waiver["joints"]))
     unset = both(*(drop_key("joints", LEG, key) for key in ("gear_ratio", "zero_offset", "direction")))
     defaults = load(tmp_path, talos, edited(shipped("talos_dynamixel"), unset))
     leg = defaults.motors[talos.joint_names.index(LEG)]

@@ -862,23 +862,28 @@ def test_damiao_drives_take_a_can_timeout_and_disable_themselves_when_the_host_s
         emulator.close()
 
 
-def test_drives_without_a_command_timeout_need_a_stated_acknowledgement(talos, tmp_path, capsys):
+def test_drives_without_a_command_timeout_need_each_joint_named(talos, tmp_path, capsys):
     """A drive with no command timeout of its own holds its last stiff command when the host dies:
-    a bus config with such drives is refused unless it says why they may be enabled."""
-    text = load_bus_config("talos_mit_can", talos.joint_names).path.read_text()
+    a bus config with such drives is refused unless it names each of their joints and says why."""
+    import yaml
+
+    config = load_bus_config("talos_mit_can", talos.joint_names)
+    data = yaml.safe_load(config.path.read_text())
     bare = tmp_path / "no_ack.yaml"
-    bare.write_text("\n".join(line for line in text.splitlines() if not line.startswith("without_drive_timeout")))
-    config = load_bus_config(bare, talos.joint_names)
+    bare.write_text(yaml.safe_dump({k: v for k, v in data.items() if k != "without_drive_timeout"}))
     with pytest.raises(ConfigError, match="32 drives have no command timeout of their own"):
-        MitCanBackend(config, talos.kd)
+        MitCanBackend(load_bus_config(bare, talos.joint_names), talos.kd)
     assert main(["hw", "stand", "--hw", "mit-can-emulated", "--bus-config", str(bare)]) == 2
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1 and "without_drive_timeout" in err
-    bare.write_text(text.replace('without_drive_timeout: "emulated', 'without_drive_timeout: "yes"\n#'))
-    with pytest.raises(ConfigError, match="without_drive_timeout must say, in a few words, why"):
-        load_bus_config(bare, talos.joint_names)
-    damiao = dataclasses.replace(config, models={k: dict(v, reply="damiao") for k, v in config.models.items()})
-    assert MitCanBackend(damiao, talos.kd).drive_timeout_joints == tuple(talos.joint_names)  # no acknowledgement needed
+    one_short = dict(data, without_drive_timeout=dict(data["without_drive_timeout"],
+                                                      joints=data["without_drive_timeout"]["joints"][1:]))
+    bare.write_text(yaml.safe_dump(one_short))
+    with pytest.raises(ConfigError, match=r"1 drives have no command timeout of their own \(leg_left_1_joint\)"):
+        MitCanBackend(load_bus_config(bare, talos.joint_names), talos.kd)
+    damiao = dataclasses.replace(config, models={k: dict(v, reply="damiao") for k, v in config.models.items()},
+                                 without_drive_timeout=None)
+    assert MitCanBackend(damiao, talos.kd).drive_timeout_joints == tuple(talos.joint_names)  # nothing to name
 
 
 def test_a_drive_that_does_not_confirm_its_timeout_fails_the_configuration(talos):
@@ -1057,6 +1062,25 @@ def test_a_signal_inside_activate_leaves_every_drive_damped_and_disabled(talos, 
         time.sleep(0.05)
         assert np.all(emulator.kp == 0) and np.all(emulator.kd > 0)  # damping was sent ...
         assert not emulator.enabled.any()  # ... and every drive disabled
+    finally:
+        hw.close()
+        emulator.close()
+
+
+def test_emulated_damiao_drives_disable_themselves_on_silence_without_a_next_frame(talos):
+    """As a real Damiao drive does: its CAN timeout acts when the host stops sending, not when the
+    next frame comes."""
+    hw, emulator, clock = configured_mit(talos, models=with_reply(talos, "damiao"), drive_timeout=0.1)
+    try:
+        hw.activate()
+        state = hw.read()
+        for _ in range(5):
+            state = tick(hw, clock, hold(talos, state))
+        assert emulator.enabled.all()
+        time.sleep(0.05)
+        assert emulator.enabled.all()  # within the timeout
+        time.sleep(0.15)  # past it, and no frame since
+        assert not emulator.enabled.any() and set(emulator.faults.values()) == {13}
     finally:
         hw.close()
         emulator.close()

@@ -62,16 +62,18 @@ def servos(talos, tmp_path):
         emulated_body_sensors.EMULATOR, emulated_body_sensors.CLOCK = None, time.monotonic
 
 
-def test_a_walk_on_real_servos_starts_with_the_start_sequence_and_walks_on_the_estimated_base(talos, servos):
+def test_a_walk_on_real_servos_starts_with_the_start_sequence_and_walks_on_the_estimated_base(talos, servos,
+                                                                                             caplog):
     path, emulator = servos
     start = emulator.body_state().base_pos.copy()
     clock, dt = SlowClock(), 0.005
-    with open_hardware("mit-can", talos, str(path), clock=clock) as hw:
+    with open_hardware("mit-can", talos, str(path), clock=clock, allow_drives_without_timeout=True) as hw:
         pacer = Pacer(dt, clock=clock, sleep=clock.sleep)
         lines = []
         report = run_walk(talos, hw, WalkGoal(distance=0.4), WalkSettings(base_state=BaseState.ESTIMATED),
                           log=lines.append, pacer=pacer)
     assert lines[0].startswith("start sequence: held half-sitting")
+    assert "if this process dies, 32 joints hold their last command (no drive timeout): leg_left_1_joint, " in caplog.text
     assert report["base_state"] == "estimated" and report["base_ground_truth"] is False
     assert report["base_estimate_error"] is None and not report["fell"]
     # The controller keeps the pace: the median tick starts on time, and a tick overruns by computing
@@ -97,12 +99,17 @@ def test_a_walk_on_real_servos_starts_with_the_start_sequence_and_walks_on_the_e
 
 
 def test_scenarios_on_real_servos_refuse_what_only_a_simulation_has(talos, servos, capsys):
-    path, _ = servos
+    path, emulator = servos
     for extra, message in ((["--push", "1:0:0.1"], "act on a simulated robot, not on real servos"),
                            (["--base-state", "simulated"], "has no simulator"),
                            (["--video", "x.mp4"], "show the simulation")):
         assert main(["balance", "--hw", "mit-can", "--bus-config", str(path), *extra]) == 2
         assert message in capsys.readouterr().err
+    # Drives with no command timeout of their own, on a real bus: only when the user says so.
+    assert main(["balance", "--hw", "mit-can", "--bus-config", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "--hw mit-can: 32 drives have no command timeout of their own" in err
+    assert "Pass --allow-drives-without-timeout" in err and not emulator.enabled.any()
     missing = path.with_name("missing.yaml")
     missing.write_text(path.read_text().replace("emulated_body_sensors:open_sensors", "emulated_body_sensors:open_missing"))
     assert main(["walk", "--hw", "mit-can", "--bus-config", str(missing), "--distance", "1"]) == 3

@@ -20,8 +20,9 @@ entry per joint of the robot::
     # dynamixel models may set their protective limits: shutdown (hardware-error bits that switch the
     # torque off, default 0x34), temperature_limit_c (default 85), pwm_limit (default 885); the
     # velocity limit is the joint's
-    without_drive_timeout: "why"          # mit_can: drives with no command timeout of their own (mit6,
-                                          # cubemars) are enabled only with this acknowledgement stated
+    without_drive_timeout:                # mit_can: drives with no command timeout of their own (mit6,
+      why: "in a few words"               # cubemars) are enabled only with each of their joints named
+      joints: [leg_left_1_joint, ...]     # here, and on real buses only with --allow-drives-without-timeout
 
 A mit_can model may name its reply format, ``reply: mit6`` (default), ``cubemars`` or ``damiao``
 (``mit_protocol``); the motors of one bus share one format, and Damiao ids are 1..15.
@@ -70,6 +71,15 @@ class MotorMap:
 
 
 @dataclass(frozen=True)
+class DriveTimeoutWaiver:
+    """Drives with no command timeout of their own that the config lets be enabled: why, and the
+    joints they drive (each named, so that a drive added later is not waived unseen)."""
+
+    why: str
+    joints: tuple[str, ...]
+
+
+@dataclass(frozen=True)
 class BusConfig:
     backend: str
     buses: dict[str, dict[str, Any]]  # bus name -> python-can options (mit_can) / port name -> port (dynamixel)
@@ -82,7 +92,7 @@ class BusConfig:
     body_sensors: str | None = None  # "module:function" opening the IMU and foot F/T driver (buses/body_sensors.py)
     #: Why motors without a drive-side command timeout may be enabled (None: they may not). Such a
     #: drive holds its last command, stiff, when the host dies.
-    without_drive_timeout: str | None = None
+    without_drive_timeout: DriveTimeoutWaiver | None = None
 
     def reply_format(self, motor: MotorMap) -> str:
         """The reply format of ``motor``'s model (mit_can)."""
@@ -186,9 +196,16 @@ def load_bus_config(name_or_path: str | Path, joint_names: tuple[str, ...]) -> B
              f"body_sensors = {sensors!r} must be module:function (a Python module on the path and its function)",
              path)
     acknowledged = data.get("without_drive_timeout")
-    _require(acknowledged is None or (isinstance(acknowledged, str) and len(acknowledged.split()) >= 3),
-             "without_drive_timeout must say, in a few words, why drives without a command timeout may be enabled",
-             path)
+    _require(acknowledged is None or (isinstance(acknowledged, dict) and set(acknowledged) == {"why", "joints"}
+                                      and isinstance(acknowledged["why"], str) and len(acknowledged["why"].split()) >= 3
+                                      and isinstance(acknowledged["joints"], list)
+                                      and all(isinstance(j, str) for j in acknowledged["joints"])),
+             "without_drive_timeout must give why (in a few words) drives without a command timeout may be enabled, "
+             "and joints: the list of those drives' joints", path)
+    if acknowledged is not None:
+        unknown = [j for j in acknowledged["joints"] if j not in joint_names]
+        _require(not unknown, f"without_drive_timeout.joints are not in the robot: {unknown}", path)
+        acknowledged = DriveTimeoutWaiver(acknowledged["why"], tuple(acknowledged["joints"]))
     joints = data.get("joints") or {}
     _require(isinstance(joints, dict), "joints must map joint names to motors", path)
     missing = [j for j in joint_names if j not in joints]

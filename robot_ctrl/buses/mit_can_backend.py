@@ -84,11 +84,13 @@ class MitCanBackend(HardwareAdapter):
         self._bus_format = {m.bus: f for m, f in zip(config.motors, self.formats)}  # one format per bus
         self._index = {(m.bus, m.id): i for i, m in enumerate(config.motors)}
         holding = [m.joint for m, f in zip(config.motors, self.formats) if f != "damiao"]
-        if holding and config.without_drive_timeout is None:
-            raise ConfigError(f"{config.path.name}: {len(holding)} drives have no command timeout of their own "
-                              f"({holding[0]}{', ...' if len(holding) > 1 else ''}): a host that dies leaves them on "
+        waiver = config.without_drive_timeout
+        unnamed = [j for j in holding if waiver is None or j not in waiver.joints]
+        if unnamed:
+            raise ConfigError(f"{config.path.name}: {len(unnamed)} drives have no command timeout of their own "
+                              f"({unnamed[0]}{', ...' if len(unnamed) > 1 else ''}): a host that dies leaves them on "
                               "their last stiff command. Use drives with one (reply: damiao, drive_timeout_s), or "
-                              "state why they may be enabled: without_drive_timeout: \"...\"")
+                              "name each such joint under without_drive_timeout: {why: ..., joints: [...]}")
         self._buses: dict[str, can.BusABC] = {}
         self._p = np.zeros(self.nj)  # motor side
         self._v = np.zeros(self.nj)
@@ -113,7 +115,8 @@ class MitCanBackend(HardwareAdapter):
 
     @property
     def without_drive_timeout(self) -> str | None:
-        return self.config.without_drive_timeout
+        waiver = self.config.without_drive_timeout
+        return None if waiver is None else waiver.why
 
     def _set_drive_timeouts(self) -> None:
         """Write the Damiao drives' TIMEOUT register and read it back; fail naming the drives that

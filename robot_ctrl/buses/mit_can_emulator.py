@@ -48,6 +48,7 @@ from robot_ctrl.hw.types import JointCommand, JointState
 
 LOST = 13  # Damiao status: communication lost (its CAN timeout expired)
 AMBIENT = 30.0  # [°C] the temperature an emulated drive reports when the plant has none
+SILENCE_CHECK = 0.01  # [s] how often a silent bus's drives look at their timeouts
 
 
 class MitCanEmulator:
@@ -116,8 +117,12 @@ class MitCanEmulator:
     def _serve(self, name: str, bus: can.BusABC) -> None:
         """Answer the frames of bus ``name``; when stopped, the frames already sent are still taken
         (a motor acts on every frame it receives, the disable sent just before a close included)."""
+        on_bus = [i for i, m in enumerate(self.config.motors) if m.bus == name]
         while True:
-            msg = bus.recv(timeout=0.05 if self._running.is_set() else 0.0)
+            msg = bus.recv(timeout=SILENCE_CHECK if self._running.is_set() else 0.0)
+            with self._lock:  # a drive's timeout acts on silence too, not only when the next frame comes
+                for i in on_bus:
+                    self._expire(i)
             if msg is None:
                 if not self._running.is_set():
                     return
@@ -132,7 +137,7 @@ class MitCanEmulator:
                 continue
             data = bytes(msg.data)
             with self._lock:
-                self._check_timeout(i)
+                self._last_command[i] = time.monotonic()
                 if data == ENABLE:
                     self.enabled[i] = True
                     if self.faults.get(i) == LOST:
@@ -162,14 +167,13 @@ class MitCanEmulator:
             answer = param_frame(motor_id, op, register, self.registers[i].get(register, 0))
         bus.send(can.Message(arbitration_id=HOST_ID, data=answer, is_extended_id=False))
 
-    def _check_timeout(self, i: int) -> None:
+    def _expire(self, i: int) -> None:
         """A Damiao drive whose TIMEOUT passed since its last frame disables itself (status 13)."""
-        now = time.monotonic()
         timeout = self.registers[i].get(TIMEOUT_REGISTER, 0) * TIMEOUT_UNIT
-        if self.enabled[i] and self.formats[i] == "damiao" and timeout > 0 and now - self._last_command[i] > timeout:
+        silent = time.monotonic() - self._last_command[i]
+        if self.enabled[i] and self.formats[i] == "damiao" and timeout > 0 and silent > timeout:
             self.enabled[i] = False
             self.faults[i] = LOST
-        self._last_command[i] = now
 
     def _motor_position(self, i: int) -> float:
         m = self.config.motors[i]

@@ -24,6 +24,9 @@ def add_parsers(sub, robot) -> None:
     p.add_argument("--hw", choices=[k.value for k in HardwareKind], default=HardwareKind.MIT_CAN_EMULATED.value,
                    help="servos: real (mit-can, dynamixel: the interfaces in --bus-config) or emulated")
     p.add_argument("--bus-config", help="bus mapping (configs/hw name or YAML path); required for real servos")
+    p.add_argument("--allow-drives-without-timeout", action="store_true",
+                   help="real servos: enable drives that have no command timeout of their own (they hold their "
+                        "last command if this process dies; the run says which)")
     p.add_argument("--duration", type=float, default=4.0, help="stand, jog: the move's duration [s], 0.5..60")
     p.add_argument("--gain-scale", type=float, default=0.3, help="stand, jog: share of the servo stiffness, 0.01..1")
     log_arg(p)
@@ -52,7 +55,8 @@ def _hw(args: argparse.Namespace) -> int:
     if args.action == "zero" and kind not in (HardwareKind.MIT_CAN, HardwareKind.MIT_CAN_EMULATED):
         raise ConfigError(f"hw zero sets an MIT drive's encoder zero; with --hw {kind.value} put the joint's "
                           "zero_offset in the bus config instead (docs/hardware.md, Bring-up)")
-    with open_hardware(kind, robot, args.bus_config) as hw:
+    with open_hardware(kind, robot, args.bus_config,
+                       allow_drives_without_timeout=args.allow_drives_without_timeout) as hw:
         if args.action == "read":
             for row in bringup.read(robot, hw):
                 print("  ".join(f"{k} {v}" for k, v in row.items()))

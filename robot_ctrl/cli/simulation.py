@@ -20,6 +20,9 @@ def simulation_parent(robot: argparse.ArgumentParser) -> argparse.ArgumentParser
                              "Dynamixel servo bus, or real servos (mit-can, dynamixel: the start sequence first, "
                              "then the scenario on the estimated base; docs/hardware.md)")
     parent.add_argument("--bus-config", help="bus mapping (configs/hw name or YAML path); required for real servos")
+    parent.add_argument("--allow-drives-without-timeout", action="store_true",
+                        help="real servos: enable drives that have no command timeout of their own (they hold their "
+                             "last command if this process dies; the run says which)")
     parent.add_argument("--viewer", action="store_true", help="open the MuJoCo viewer (needs a display)")
     parent.add_argument("--video", type=Path, metavar="FILE.mp4",
                         help="record the run at 30 fps (MuJoCo offscreen renderer; MUJOCO_GL=egl when there is no display)")
@@ -69,8 +72,8 @@ def simulation(args: argparse.Namespace, robot=None, prop=None):
         check_real_robot(args, disturbances, robot)
     try:
         return robot, disturbances, open_hardware(args.hw, robot, args.bus_config, viewer=args.viewer,
-                                                  video=args.video, disturbances=disturbances,
-                                                  prop=prop)
+                                                  video=args.video, disturbances=disturbances, prop=prop,
+                                                  allow_drives_without_timeout=args.allow_drives_without_timeout)
     except (FileNotFoundError, ValueError) as exc:
         raise ConfigError(f"--hw {args.hw}: {exc}") from exc
 
