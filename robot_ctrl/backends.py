@@ -88,7 +88,7 @@ def open_hardware(kind: HardwareKind | str, robot: RobotModel, bus_config: str |
         from robot_ctrl.buses.mit_can_backend import MitCanBackend
         from robot_ctrl.buses.mit_can_emulator import MitCanEmulator
 
-        config = load_bus_config(bus_config or f"{robot.name}_mit_can", robot.joint_names)
+        config = _bus_config(kind, bus_config or f"{robot.name}_mit_can", robot)
         emulator = MitCanEmulator(config, plant)
         emulator.drop_probability = disturbances.reply_loss
         emulator.start()
@@ -97,7 +97,7 @@ def open_hardware(kind: HardwareKind | str, robot: RobotModel, bus_config: str |
         from robot_ctrl.buses.dynamixel_backend import DynamixelBackend
         from robot_ctrl.buses.dynamixel_emulator import DynamixelEmulator
 
-        config = load_bus_config(bus_config or f"{robot.name}_dynamixel", robot.joint_names)
+        config = _bus_config(kind, bus_config or f"{robot.name}_dynamixel", robot)
         emulator = DynamixelEmulator(config, plant)
         emulator.start()
         config = dataclasses.replace(config, buses={name: dict(port, device=emulator.port_names[name])
@@ -121,7 +121,7 @@ def _bus_backend(kind: HardwareKind, robot: RobotModel, bus_config: str | None, 
     if bus_config is None:
         raise ConfigError(f"--hw {kind.value} needs --bus-config: the YAML naming your buses, CAN ids, directions "
                           f"and zero offsets (start from {shipped_bus_configs()})")
-    config = load_bus_config(bus_config, robot.joint_names)
+    config = _bus_config(kind, bus_config, robot)
     sensors = open_body_sensors(config, robot) if config.body_sensors else None
     if kind is HardwareKind.MIT_CAN:
         from robot_ctrl.buses.mit_can_backend import MitCanBackend
@@ -138,6 +138,16 @@ def _bus_backend(kind: HardwareKind, robot: RobotModel, bus_config: str | None, 
                           f"({', '.join(holding[:3])}{', ...' if len(holding) > 3 else ''}): if this process dies "
                           "they hold their last command. Pass --allow-drives-without-timeout to run them anyway")
     return backend
+
+
+def _bus_config(kind: HardwareKind, name: str, robot: RobotModel):
+    """The bus config ``name``, refused in one line if it is not for the backend ``kind`` drives."""
+    config = load_bus_config(name, robot.joint_names)
+    wanted = "mit_can" if kind in (HardwareKind.MIT_CAN, HardwareKind.MIT_CAN_EMULATED) else "dynamixel"
+    if config.backend != wanted:
+        raise ConfigError(f"--bus-config {name}: a {config.backend} bus config, and --hw {kind.value} needs a "
+                          f"{wanted} one (start from {shipped_bus_configs()})")
+    return config
 
 
 def _say_what_holds(backend, robot: RobotModel) -> list[str]:

@@ -133,3 +133,7 @@ def test_bring_up_commands_on_the_emulated_bus(capsys):
     assert "stop_without_host: 32 of 32 joints" in out and "hold_last_command_without_host: []" in out
     assert main(["hw", "scan", "--hw", "mit-can"]) == 2
     assert "--hw mit-can needs --bus-config" in capsys.readouterr().err
+    assert main(["hw", "scan", "--hw", "dynamixel-emulated", "--bus-config", "talos_mit_can"]) == 2  # not its bus
+    err = capsys.readouterr().err
+    assert "--bus-config talos_mit_can: a mit_can bus config, and --hw dynamixel-emulated needs a dynamixel one" in err
+    assert len(err.strip().splitlines()) == 1

@@ -43,9 +43,14 @@ def test_what_is_not_a_log_is_refused_in_one_line(tmp_path, capsys):
     assert main(["log", str(tmp_path / "missing.log")]) == 2
     assert main(["walk", "--distance", "1", "--log", str(tmp_path)]) == 2
     assert "is a folder" in capsys.readouterr().err
+    # An --out that cannot take the report is refused before the run, not after it.
+    assert main(["walk", "--distance", "1", "--out", str(text)]) == 2
+    assert f"--out {text} is a file, not a folder" in capsys.readouterr().err
+    assert main(["robustness", "--quick", "--out", str(text / "sub")]) == 2
+    assert f"--out {text / 'sub'}: {text} is a file, not a folder" in capsys.readouterr().err
 
 
-def test_the_log_is_written_off_the_control_thread(talos, tmp_path):
+def test_the_log_is_written_off_the_control_thread(talos, tmp_path, capsys):
     """The control thread only packs a record; a thread of the log's own writes it (a slow disk must
     not delay a tick)."""
     import threading
@@ -84,6 +89,13 @@ def test_the_log_is_written_off_the_control_thread(talos, tmp_path):
     writer.close()
     hw.close()
     assert writers == ["tick-log"] * 5 and len(read_tick_log(tmp_path / "ticks.log").records) == 5
+    # A run that stopped before its first tick leaves the header alone: refused in one line.
+    header = (tmp_path / "ticks.log").read_bytes().partition(b"\n")[0] + b"\n"
+    (tmp_path / "empty.log").write_bytes(header)
+    assert main(["log", str(tmp_path / "empty.log")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.endswith("empty.log holds no tick: the run stopped before its first one (its header alone)")
+    assert len(err.splitlines()) == 1
 
 
 def test_a_record_holds_what_its_tick_had_and_nan_where_it_had_nothing(talos, tmp_path):

@@ -9,6 +9,7 @@ from pathlib import Path
 from robot_ctrl.cli.options import (
     backend_args,
     backend_of,
+    check_out_folder,
     check_ranges,
     command_line,
     dataset_arg,
@@ -49,6 +50,7 @@ def _campaign(args: argparse.Namespace) -> int:
                                                        t.dynfilter, speed=t.speed)
                  for t in trials if (t.dataset, t.method == "naive") == (demos, naive)}
         check_drawer_tasks(tasks, robot, dataset=None if demos is None else Path(demos), whole_body=naive)
+    check_out_folder(args)
     backend = backend_of(args, "campaign")
     args.out.mkdir(parents=True, exist_ok=True)
     result = campaign.run_drawer_campaign(trials, args.out, backend, robot, timeout=args.timeout,

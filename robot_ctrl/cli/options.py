@@ -127,8 +127,25 @@ def check_log_path(args: argparse.Namespace) -> None:
         raise ConfigError(f"--log {path}: {folder} is not writable")
 
 
+def check_out_folder(args: argparse.Namespace) -> None:
+    """Refuse an ``--out`` that is not a folder this process can write, before anything runs (not
+    after a whole run, when its report is to be written)."""
+    out = getattr(args, "out", None)
+    if out is None:
+        return
+    if out.exists() and not out.is_dir():
+        raise ConfigError(f"--out {out} is a file, not a folder")
+    existing = next(p for p in (out, *out.absolute().parents) if p.exists())
+    if not existing.is_dir():
+        raise ConfigError(f"--out {out}: {existing} is a file, not a folder")
+    if not os.access(existing, os.W_OK):
+        raise ConfigError(f"--out {out}: {existing} is not writable")
+
+
 def check_outputs(args: argparse.Namespace) -> None:
-    """Refuse a viewer without a display and a video without an offscreen renderer, before anything runs."""
+    """Refuse an output folder or log that cannot be written, a viewer without a display and a
+    video without an offscreen renderer, before anything runs."""
+    check_out_folder(args)
     check_log_path(args)
     if args.viewer and sys.platform.startswith("linux") and not (os.environ.get("DISPLAY") or
                                                                  os.environ.get("WAYLAND_DISPLAY")):

@@ -10,6 +10,7 @@ from robot_ctrl.cli.options import (
     backend_args,
     backend_of,
     base_state_arg,
+    check_out_folder,
     check_ranges,
     command_line,
     dataset_arg,
@@ -136,6 +137,7 @@ def _robustness(args: argparse.Namespace) -> int:
     from robot_ctrl.wpg.params import WalkParams
 
     check_ranges("robustness", args)
+    check_out_folder(args)
     timing = step_timing(args, "robustness")
     grid = {}
     if args.quick:  # a smoke test of the campaign: two directions, one phase, two magnitudes

@@ -153,6 +153,8 @@ def read_tick_log(path: Path) -> TickLog:
         raise ValueError(f"{path}: tick log version {header.get('version')}, this robot_ctrl reads version {VERSION}")
     dtype = np.dtype([tuple(field[:2]) + ((tuple(field[2]),) if len(field) == 3 else ()) for field in header["dtype"]])
     whole = len(body) // dtype.itemsize * dtype.itemsize
+    if whole == 0:
+        raise ValueError(f"{path} holds no tick: the run stopped before its first one (its header alone)")
     return TickLog(header, np.frombuffer(body[:whole], dtype=dtype))
 
 
