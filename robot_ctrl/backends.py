@@ -122,6 +122,12 @@ def _bus_backend(kind: HardwareKind, robot: RobotModel, bus_config: str | None, 
         raise ConfigError(f"--hw {kind.value} needs --bus-config: the YAML naming your buses, CAN ids, directions "
                           f"and zero offsets (start from {shipped_bus_configs()})")
     config = _bus_config(kind, bus_config, robot)
+    if kind is HardwareKind.DYNAMIXEL:
+        missing = {name: port["device"] for name, port in config.buses.items() if not Path(port["device"]).exists()}
+        if missing:
+            raise ConfigError(f"--bus-config {bus_config}: no serial device " + ", ".join(
+                f"{device} (port {name})" for name, device in missing.items()) + ": is the adapter plugged in "
+                "(ls /dev/serial/by-id)?")
     sensors = open_body_sensors(config, robot) if config.body_sensors else None
     if kind is HardwareKind.MIT_CAN:
         from robot_ctrl.buses.mit_can_backend import MitCanBackend

@@ -7,12 +7,14 @@ import time
 import numpy as np
 import pytest
 
+from robot_ctrl.buses.bus_config import load_bus_config
 from robot_ctrl.cli import main
 from robot_ctrl.control.loop.pacer import Pacer
 from robot_ctrl.control.loop.start_sequence import StartParams, StartRefused, StartSequence
 from robot_ctrl.hw.adapter import HardwareAdapter, HardwareFault
 from robot_ctrl.hw.safety import SafetyLayer, SafetyLimits
 from robot_ctrl.hw.types import JointCommand, JointState
+from robot_ctrl.robot.model import load_robot
 from robot_ctrl.scenarios import bringup
 
 
@@ -115,7 +117,7 @@ def test_the_pacer_tells_overruns_off_the_cpu_from_work_that_took_too_long():
 
 
 @pytest.mark.realtime  # emulated buses answer on wall-clock timeouts: a Dynamixel reply came late under -n 2
-def test_bring_up_commands_on_the_emulated_bus(capsys):
+def test_bring_up_commands_on_the_emulated_bus(capsys, tmp_path):
     assert main(["hw", "read"]) == 0
     rows = [line for line in capsys.readouterr().out.splitlines() if line.startswith("joint ")]
     assert len(rows) == 32 and all(line.endswith("status ok") for line in rows)
@@ -137,3 +139,9 @@ def test_bring_up_commands_on_the_emulated_bus(capsys):
     err = capsys.readouterr().err
     assert "--bus-config talos_mit_can: a mit_can bus config, and --hw dynamixel-emulated needs a dynamixel one" in err
     assert len(err.strip().splitlines()) == 1
+    unplugged = tmp_path / "unplugged.yaml"  # a real port whose adapter is not there
+    unplugged.write_text(load_bus_config("talos_dynamixel", load_robot("talos").joint_names).path.read_text()
+                         .replace("/dev/ttyUSB0", str(tmp_path / "ttyUSB9")))
+    assert main(["hw", "scan", "--hw", "dynamixel", "--bus-config", str(unplugged)]) == 2
+    err = capsys.readouterr().err
+    assert f"no serial device {tmp_path / 'ttyUSB9'} (port port)" in err and len(err.strip().splitlines()) == 1

@@ -128,6 +128,11 @@ def _require(cond: bool, message: str, path: Path) -> None:
 GEAR_RATIO = (0.1, 1000.0)  # motor turns per joint turn: direct drive to the strongest harmonic drives, with margin
 
 
+def _integer(x) -> bool:
+    """An integer as YAML gives it (a bool is not one)."""
+    return isinstance(x, int) and not isinstance(x, bool)
+
+
 def _finite(x) -> bool:
     """A finite number as YAML gives it (a bool is not one)."""
     return isinstance(x, (int, float)) and not isinstance(x, bool) and bool(np.isfinite(x))
@@ -174,22 +179,21 @@ def load_bus_config(name_or_path: str | Path, joint_names: tuple[str, ...]) -> B
         for model, spec in models.items():
             for key in ("units_per_rev", "velocity_unit", "current_unit", "torque_constant", "kp_unit", "kd_unit"):
                 value = spec.get(key) if isinstance(spec, dict) else None
-                _require(isinstance(value, (int, float)) and value > 0, f"models.{model}.{key} must be a number > 0",
-                         path)
+                _require(_finite(value) and value > 0, f"models.{model}.{key} must be a finite number > 0", path)
             _require(isinstance(spec.get("fast_sync_read", False), bool),
                      f"models.{model}.fast_sync_read must be true or false", path)
             for key, (lo, hi) in (("shutdown", (0, 255)), ("temperature_limit_c", (0, 100)), ("pwm_limit", (0, 885))):
                 value = spec.get(key, lo)
-                _require(isinstance(value, int) and lo <= value <= hi,
+                _require(_integer(value) and lo <= value <= hi,
                          f"models.{model}.{key} = {value!r} must be an integer in [{lo}, {hi}]", path)
     timeout = data.get("reply_timeout_s", BusConfig.reply_timeout)
-    _require(isinstance(timeout, (int, float)) and 1e-4 <= timeout <= 1.0,
+    _require(_finite(timeout) and 1e-4 <= timeout <= 1.0,
              f"reply_timeout_s = {timeout!r} is outside the allowed range [0.0001, 1] s", path)
     missed = data.get("max_missed_replies", BusConfig.max_missed_replies)
-    _require(isinstance(missed, int) and 0 <= missed <= 1000,
+    _require(_integer(missed) and 0 <= missed <= 1000,
              f"max_missed_replies = {missed!r} is outside the allowed range [0, 1000]", path)
     drive_timeout = data.get("drive_timeout_s", BusConfig.drive_timeout)
-    _require(isinstance(drive_timeout, (int, float)) and 0.001 <= drive_timeout <= 10.0,
+    _require(_finite(drive_timeout) and 0.001 <= drive_timeout <= 10.0,
              f"drive_timeout_s = {drive_timeout!r} is outside the allowed range [0.001, 10] s", path)
     sensors = data.get("body_sensors")
     _require(sensors is None or (isinstance(sensors, str) and re.fullmatch(r"[A-Za-z_][\w.]*:[A-Za-z_]\w*", sensors)),

@@ -102,10 +102,10 @@ class DynamixelBackend(HardwareAdapter):
     def _on_configure(self) -> None:
         self._t0 = self.clock()  # the state's time counts from here
         self._pool = ThreadPoolExecutor(len(self.ports), thread_name_prefix="dynamixel-port")
-        self._open = True
         for port in self.ports:
             port.open()
             port.check_fast_sync_read()
+        self._open = True  # damping can be sent from here on
         self._sync_read()
         if self._time is None:
             raise OSError(f"no answer from the servos on {', '.join(p.device for p in self.ports)}")

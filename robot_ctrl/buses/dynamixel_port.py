@@ -30,9 +30,14 @@ class DynamixelPort:
         self.port = None
 
     def open(self) -> None:
-        self.port = sdk.PortHandler(self.device)
-        if not self.port.openPort():
+        port = sdk.PortHandler(self.device)
+        try:
+            opened = port.openPort()
+        except Exception as exc:  # pyserial's SerialException: no such device, no permission
+            raise OSError(f"cannot open the Dynamixel port {self.device} ({self.name}): {exc}") from exc
+        if not opened:
             raise OSError(f"cannot open the Dynamixel port {self.device} ({self.name})")
+        self.port = port
         if not self.port.setBaudRate(self.baudrate):
             raise OSError(f"cannot set {self.device} to {self.baudrate} baud")
         self.packet = sdk.PacketHandler(2.0)
