@@ -6,7 +6,8 @@ the last code between a controller and real servos.
 - ``types``: what crosses the interface, ``JointState`` (measured) and ``JointCommand``.
 - ``safety``: ``SafetyLayer``, which wraps any backend so that only safe commands reach it;
   ``safety_limits`` (what it holds commands within), ``command_filter`` (its per-tick pass, compiled),
-  ``servo_torque`` (the torque a command produces, bounded to the servo's effort).
+  ``servo_torque`` (the torque a command produces, bounded to the servo's effort);
+  ``held_signals`` (Ctrl-C and SIGTERM held while the servos are brought to their safe state).
 
 The backends live elsewhere: the simulated robot in ``robot_ctrl.sim``, real servo buses in
 ``robot_ctrl.buses``.
