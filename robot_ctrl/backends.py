@@ -89,6 +89,7 @@ def open_hardware(kind: HardwareKind | str, robot: RobotModel, bus_config: str |
         from robot_ctrl.buses.mit_can_emulator import MitCanEmulator
 
         config = _bus_config(kind, bus_config or f"{robot.name}_mit_can", robot)
+        _say_what_holds(config)
         emulator = MitCanEmulator(config, plant)
         emulator.drop_probability = disturbances.reply_loss
         emulator.start()
@@ -98,13 +99,13 @@ def open_hardware(kind: HardwareKind | str, robot: RobotModel, bus_config: str |
         from robot_ctrl.buses.dynamixel_emulator import DynamixelEmulator
 
         config = _bus_config(kind, bus_config or f"{robot.name}_dynamixel", robot)
+        _say_what_holds(config)
         emulator = DynamixelEmulator(config, plant)
         emulator.start()
         config = dataclasses.replace(config, buses={name: dict(port, device=emulator.port_names[name])
                                                     for name, port in config.buses.items()})
         backend = DynamixelBackend(config, robot.kd, body_sensors=emulator.body_state, effort=robot.effort,
                                    velocity=robot.velocity_limit)
-    _say_what_holds(backend, robot)
     hw = SafetyLayer(backend, limits, clock=emulator.clock)
     hw.start_watchdog()  # a bus has no lock-step: a stalled controller must be caught from outside
     try:
@@ -128,22 +129,20 @@ def _bus_backend(kind: HardwareKind, robot: RobotModel, bus_config: str | None, 
             raise ConfigError(f"--bus-config {bus_config}: no serial device " + ", ".join(
                 f"{device} (port {name})" for name, device in missing.items()) + ": is the adapter plugged in "
                 "(ls /dev/serial/by-id)?")
-    sensors = open_body_sensors(config, robot) if config.body_sensors else None
-    if kind is HardwareKind.MIT_CAN:
-        from robot_ctrl.buses.mit_can_backend import MitCanBackend
-
-        backend = MitCanBackend(config, robot.kd, body_sensors=sensors, clock=clock)
-    else:
-        from robot_ctrl.buses.dynamixel_backend import DynamixelBackend
-
-        backend = DynamixelBackend(config, robot.kd, body_sensors=sensors, clock=clock, effort=robot.effort,
-                                   velocity=robot.velocity_limit)
-    holding = _say_what_holds(backend, robot)
+    holding = _say_what_holds(config)
     if holding and not allow_drives_without_timeout:
         raise ConfigError(f"--hw {kind.value}: {len(holding)} drives have no command timeout of their own "
                           f"({', '.join(holding[:3])}{', ...' if len(holding) > 3 else ''}): if this process dies "
                           "they hold their last command. Pass --allow-drives-without-timeout to run them anyway")
-    return backend
+    sensors = open_body_sensors(config, robot) if config.body_sensors else None
+    if kind is HardwareKind.MIT_CAN:
+        from robot_ctrl.buses.mit_can_backend import MitCanBackend
+
+        return MitCanBackend(config, robot.kd, body_sensors=sensors, clock=clock)
+    from robot_ctrl.buses.dynamixel_backend import DynamixelBackend
+
+    return DynamixelBackend(config, robot.kd, body_sensors=sensors, clock=clock, effort=robot.effort,
+                            velocity=robot.velocity_limit)
 
 
 def _bus_config(kind: HardwareKind, name: str, robot: RobotModel):
@@ -156,10 +155,10 @@ def _bus_config(kind: HardwareKind, name: str, robot: RobotModel):
     return config
 
 
-def _say_what_holds(backend, robot: RobotModel) -> list[str]:
-    """Log which joints would hold their last command if this process died, and return them."""
-    stopping = set(backend.drive_timeout_joints)
-    holding = [j for j in robot.joint_names if j not in stopping]
+def _say_what_holds(config) -> tuple[str, ...]:
+    """Log which joints of the bus config would hold their last command if this process died, and
+    return them."""
+    holding = config.holding_joints
     if holding:
         logger.warning("if this process dies, %d joints hold their last command (no drive timeout): %s",
                        len(holding), ", ".join(holding))

@@ -112,7 +112,8 @@ def test_scenarios_on_real_servos_refuse_what_only_a_simulation_has(talos, servo
     assert "Pass --allow-drives-without-timeout" in err and not emulator.enabled.any()
     missing = path.with_name("missing.yaml")
     missing.write_text(path.read_text().replace("emulated_body_sensors:open_sensors", "emulated_body_sensors:open_missing"))
-    assert main(["walk", "--hw", "mit-can", "--bus-config", str(missing), "--distance", "1"]) == 3
+    assert main(["walk", "--hw", "mit-can", "--bus-config", str(missing), "--distance", "1",
+                 "--allow-drives-without-timeout"]) == 3
     assert "the driver did not open (OSError: no such device: /dev/imu0)" in capsys.readouterr().err
     malformed = path.with_name("malformed.yaml")
     malformed.write_text(path.read_text().replace("emulated_body_sensors:open_sensors", "'not a driver'"))

@@ -98,6 +98,14 @@ class BusConfig:
         """The reply format of ``motor``'s model (mit_can)."""
         return self.models[motor.model].get("reply", "mit6")
 
+    @property
+    def holding_joints(self) -> tuple[str, ...]:
+        """Joints whose drive has no command timeout of its own and holds its last command if the host
+        dies: MIT-CAN drives but Damiao's (a Dynamixel servo's Bus Watchdog stops it)."""
+        if self.backend != "mit_can":
+            return ()
+        return tuple(m.joint for m in self.motors if self.reply_format(m) != "damiao")
+
     # Joint side <-> motor side, vectorized over the joints.
     @property
     def direction(self) -> np.ndarray:

@@ -83,9 +83,8 @@ class MitCanBackend(HardwareAdapter):
         self.formats = [config.reply_format(m) for m in config.motors]
         self._bus_format = {m.bus: f for m, f in zip(config.motors, self.formats)}  # one format per bus
         self._index = {(m.bus, m.id): i for i, m in enumerate(config.motors)}
-        holding = [m.joint for m, f in zip(config.motors, self.formats) if f != "damiao"]
         waiver = config.without_drive_timeout
-        unnamed = [j for j in holding if waiver is None or j not in waiver.joints]
+        unnamed = [j for j in config.holding_joints if waiver is None or j not in waiver.joints]
         if unnamed:
             raise ConfigError(f"{config.path.name}: {len(unnamed)} drives have no command timeout of their own "
                               f"({unnamed[0]}{', ...' if len(unnamed) > 1 else ''}): a host that dies leaves them on "
@@ -111,7 +110,7 @@ class MitCanBackend(HardwareAdapter):
     @property
     def drive_timeout_joints(self) -> tuple[str, ...]:
         """Joints whose drive disables itself when the host stops sending (Damiao: ``drive_timeout_s``)."""
-        return tuple(m.joint for m, f in zip(self.config.motors, self.formats) if f == "damiao")
+        return tuple(m.joint for m in self.config.motors if m.joint not in self.config.holding_joints)
 
     @property
     def without_drive_timeout(self) -> str | None:
