@@ -41,6 +41,7 @@ from robot_ctrl.robot.config import ConfigError
 from robot_ctrl.robot.model import RobotModel
 from robot_ctrl.sim.disturbances import Disturbances
 from robot_ctrl.sim.mujoco_backend import MujocoBackend
+from robot_ctrl.sim.mujoco_video import Video
 from robot_ctrl.sim.mujoco_world import MujocoWorld
 from robot_ctrl.sim.prop import Prop
 from robot_ctrl.sim.robot_process import RobotProcess
@@ -50,7 +51,7 @@ logger = logging.getLogger("robot_ctrl.backends")
 
 @contextmanager
 def open_hardware(kind: HardwareKind | str, robot: RobotModel, bus_config: str | None = None, viewer: bool = False,
-                  control_dt: float = 0.005, video: Path | None = None,
+                  control_dt: float = 0.005, video: Video | Path | None = None,
                   disturbances: Disturbances = Disturbances(),
                   prop: Prop | None = None, clock: Callable[[], float] = time.monotonic,
                   allow_drives_without_timeout: bool = False) -> Iterator[SafetyLayer]:
@@ -169,7 +170,7 @@ def _say_what_holds(config) -> tuple[str, ...]:
 
 @contextmanager
 def open_group_hardware(kind: HardwareKind | str, robot: RobotModel, base_poses: list[tuple[float, float, float]],
-                        viewer: bool = False, control_dt: float = 0.005, video: Path | None = None,
+                        viewer: bool = False, control_dt: float = 0.005, video: Video | Path | None = None,
                         disturbances: Disturbances = Disturbances()) -> Iterator[tuple[MujocoWorld, list[SafetyLayer]]]:
     """Several copies of ``robot`` in one MuJoCo world, at ``base_poses`` (world x, y, yaw), each
     behind its own ``SafetyLayer`` and under the same ``disturbances`` (each robot pushed in its own

@@ -80,4 +80,13 @@ class DrawerMethod(_Mode):
     NAIVE = "naive"
 
 
-_OPTION = {DrawerMethod: "method", FilterMode: "dynfilter", ArmMotion: "arms", BaseState: "base-state", HardwareKind: "hw", SpeedClass: "speed"}  # the option each is chosen by
+class CameraView(_Mode):
+    """Where a simulation video's camera films from (``sim/mujoco_video.py``)."""
+
+    FOLLOW = "follow"  # behind and to the right of the robots, following them
+    SIDE = "side"  # the robot's left side, a little ahead of it, where its hands reach
+    TOP = "top"  # from above
+    HAND = "hand"  # close on the robot's left hand
+
+
+_OPTION = {CameraView: "camera", DrawerMethod: "method", FilterMode: "dynfilter", ArmMotion: "arms", BaseState: "base-state", HardwareKind: "hw", SpeedClass: "speed"}  # the option each is chosen by

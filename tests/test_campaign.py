@@ -215,10 +215,10 @@ def test_the_campaign_page_shows_the_posture_after_the_step_before(tmp_path, tal
     transitions = campaign_transitions(rows, talos)
     assert [group for group, _ in transitions] == [{"dataset": rows[0]["dataset"], "sources": "3+2"}]
     summary = transition_summary(transitions[0][1])
-    assert summary["short_cycles_m"] == [0.1744, 0.2514] and summary["transition_left_hand_distance_m"] > 0.002
+    assert summary["short_cycles_m"] == [0.1746, 0.2516] and summary["transition_left_hand_distance_m"] > 0.002
     page = render_campaign({"trials": rows, "summary": summarize(rows),
                             "transition_postures": [g | transition_summary(p) for g, p in transitions]},
                            tmp_path, transition_figure(talos, transitions)).read_text()
     section = page.split("Fig. 3.38", 1)[1]
-    assert "<td>talos_walk_reach_feasible.npz</td><td>3+2</td><td>17.4 / 25.1</td>" in section
+    assert "<td>talos_walk_reach_feasible.npz</td><td>3+2</td><td>17.5 / 25.2</td>" in section
     assert "data:image/png;base64," in section

@@ -23,7 +23,7 @@ class ArmInterface:
     def reference_hand(self, side):
         return self.reference.copy()
 
-    def set_hand_target(self, side, target, velocity=None):
+    def set_hand_target(self, side, target, velocity=None, rotation=None):
         self.targets[side] = target
 
 

@@ -133,6 +133,31 @@ def test_mjcf_has_servos_exclusions_and_integrator(talos, mj):
     assert frozenset(("talos/leg_left_1_link", "talos/leg_left_3_link")) in excluded
 
 
+def test_the_gripper_moves_its_fingers_as_the_urdf_couples_them(talos):
+    """The reduced URDF fixes Talos's finger joints but keeps their <mimic> tags: in the simulation
+    they move with the gripper joint (q = multiplier × q_gripper), so the gripper servo alone closes
+    the fingers, and the linkage links the config names collide with nothing."""
+    m = mujoco.MjModel.from_xml_path(str(talos.mjcf_path))
+    m.opt.gravity[:] = 0.0  # the robot floats where it is; the gripper works against its own friction
+    d = mujoco.MjData(m)
+    gripper = m.actuator("talos/gripper_left_joint").id
+    d.ctrl[gripper] = -1.0
+    for _ in range(3000):
+        mujoco.mj_step(m, d)
+    q = d.qpos[m.joint("talos/gripper_left_joint").qposadr[0]]
+    assert q < -0.9  # closed, within its 1 N·m
+    for name, multiplier in (("inner_double", 1.0), ("fingertip_1", -1.0), ("inner_single", -1.0),
+                             ("fingertip_3", -1.0)):
+        assert d.qpos[m.joint(f"talos/gripper_left_{name}_joint").qposadr[0]] == pytest.approx(multiplier * q, abs=2e-3)
+    assert m.nu == talos.nj  # the fingers have no servo of their own
+    for link in talos.config.links_without_collision:
+        body = m.body(f"talos/{link}").id
+        geoms = m.geom_bodyid == body
+        assert (m.geom_contype[geoms] == 0).all() and (m.geom_conaffinity[geoms] == 0).all()
+    tip = m.body("talos/gripper_left_fingertip_1_link").id
+    assert (m.geom_contype[m.geom_bodyid == tip] == 1).all()
+
+
 def test_mjcf_is_cached_and_converted_again_in_a_new_cache(talos, tmp_path, monkeypatch):
     from robot_ctrl.robot import mjcf
 
@@ -178,10 +203,15 @@ def test_missing_joint_lists_urdf_joints():
     (("simulation", "timestep"), 0.5, r"field 'timestep' = 0.5 is outside the allowed range"),
     (("foot", "width"), "wide", r"field 'width' must be"),
     (("half_sitting", "leg_left_4_joint"), float("nan"), r"half_sitting.leg_left_4_joint"),
+    (("grasp", "hand_rpy"), [0.0, 4.0, 0.0], r"grasp.hand_rpy must be \[roll, pitch, yaw\], each in \[-pi, pi\] rad"),
+    (("grasp", "hook"), "yes", r"grasp.hook must be true or false"),
+    (("simulation", "links_without_collision"), "gripper_left_inner_double_link",
+     r"simulation.links_without_collision must be a list of link names"),
+    (("drawer", "handle_grip"), [0.1, 0.2, 0.3], r"drawer.handle_grip and drawer.bar_from_grip go together"),
 ])
 def test_out_of_range_fields_are_named(path, value, message):
     raw = yaml.safe_load((CONFIG_DIR / "talos.yaml").read_text())
-    raw[path[0]][path[1]] = value
+    raw.setdefault(path[0], {})[path[1]] = value
     with pytest.raises(ConfigError, match=message):
         parse_robot_config(raw)
 
@@ -260,7 +290,7 @@ def test_an_unquoted_off_in_a_config_is_the_filter_mode_off(tmp_path):
     ("extends: g1\ngrasp: {closes_toward: {left: lower, right: upper}, opening: 9}\n",
      "grasp: field 'opening' = 9 is outside the allowed range [0.05, 3.0]"),
     ("extends: g1\ndrawer: {scale: 0.1}\n", "drawer: field 'scale' = 0.1 is outside the allowed range [0.3, 2.0]"),
-    ("extends: g1\ndrawer: {scal: 0.7}\n", "drawer.scal is not a field of drawer (scale, dynfilter)"),
+    ("extends: g1\ndrawer: {scal: 0.7}\n", "drawer.scal is not a field of drawer (scale, dynfilter, handle_grip, bar_from_grip)"),
     ("extends: g1\ndrawer: {dynfilter: half}\n", "drawer.dynfilter 'half' is not one of off, legs, full"),
     ("extends: g1\nlimits: {ik_ranges: {left_knee_joint: [0.0, 0.5]}}\n",
      "limits.ik_ranges.left_knee_joint must be [lower, upper] rad around its half_sitting angle 0.75"),

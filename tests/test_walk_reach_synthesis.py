@@ -299,9 +299,9 @@ def test_source_counts_compare_and_the_step_before_shapes_the_final_posture(caps
     rows = [line.split() for line in capsys.readouterr().out.splitlines() if line.split()[:1] in (["3+2"], ["5+4"])]
     q = {(r[0], int(r[1])): float(r[3]) for r in rows}
     assert len(rows) == 6 and q[("5+4", 1)] > q[("3+2", 1)] > 0.99
-    assert main(["synth-transition", "--distances", "1.10,1.30"]) == 0
+    assert main(["synth-transition", "--distances", "1.15,1.35"]) == 0
     out = capsys.readouterr().out
-    assert "short cycles 0.174 and 0.251 m before standing" in out
+    assert "short cycles 0.175 and 0.252 m before standing" in out
     hand_mm = float(out.split("the left hand by ")[1].split(" mm")[0])
     assert 5.0 < hand_mm < 50.0  # the postures differ, by a reach's fraction
     assert main(["synth-quality", "--sources", "3+2,0+9"]) == 2

@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 from robot_ctrl.cli.options import COUPLING_OPTIONS, GROUP_OPTIONS, check_outputs, check_ranges, log_line, named
-from robot_ctrl.cli.simulation import finish, parse_disturbances, simulation
+from robot_ctrl.cli.simulation import finish, parse_disturbances, simulation, video_request
 from robot_ctrl.modes import HardwareKind
 from robot_ctrl.robot.config import ConfigError
 
@@ -153,7 +153,7 @@ def _crowd_walk(args: argparse.Namespace) -> int:
         group = GroupWalk(n=args.robots, graph=args.graph, k=args.k, m_z=args.mz, m_psi=args.mpsi, speed=args.speed,
                           spacing=args.spacing, coupled_time=args.coupled_time, seed=args.seed,
                           allow_unstable=args.allow_unstable)
-        report = run_group_walk(robot, group, args.hw, out_dir=args.out, viewer=args.viewer, video=args.video,
+        report = run_group_walk(robot, group, args.hw, out_dir=args.out, viewer=args.viewer, video=video_request(args),
                                 log=log_line, progress=not args.quiet, disturbances=disturbances)
     except ValueError as exc:
         raise ConfigError(f"crowd walk: {named(str(exc), GROUP_OPTIONS)}") from exc

@@ -24,7 +24,7 @@ from robot_ctrl.cli.options import (
     time_distance,
 )
 from robot_ctrl.cli.simulation import base_state_of, finish, on_the_robot, parse_disturbances, simulation
-from robot_ctrl.modes import ArmMotion, DrawerMethod, FilterMode, SpeedClass
+from robot_ctrl.modes import ArmMotion, CameraView, DrawerMethod, FilterMode, SpeedClass
 from robot_ctrl.robot.config import ConfigError
 
 
@@ -225,7 +225,7 @@ def _add_drawer(sub, sim) -> None:
                    help="with --out, no DIR/report.html (campaign trials: their campaign has its own page; "
                         "`robot-ctrl report DIR` renders it later)")
     log_arg(p)
-    p.set_defaults(run=_drawer)
+    p.set_defaults(run=_drawer, default_camera=CameraView.SIDE.value)
 
 
 def add_robustness_parser(sub) -> None:

@@ -8,7 +8,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from robot_ctrl.cli.options import DISTURBANCE_OPTIONS, check_outputs, command_line, log_line, named
-from robot_ctrl.modes import BaseState, HardwareKind
+from robot_ctrl.modes import BaseState, CameraView, HardwareKind
 from robot_ctrl.robot.config import ConfigError
 
 
@@ -26,6 +26,10 @@ def simulation_parent(robot: argparse.ArgumentParser) -> argparse.ArgumentParser
     parent.add_argument("--viewer", action="store_true", help="open the MuJoCo viewer (needs a display)")
     parent.add_argument("--video", type=Path, metavar="FILE.mp4",
                         help="record the run at 30 fps (MuJoCo offscreen renderer; MUJOCO_GL=egl when there is no display)")
+    parent.add_argument("--camera", choices=[v.value for v in CameraView],
+                        help="the video's camera: behind the robots (follow, the default), from the robot's left side "
+                             "where its hands work (side, the drawer task's default), from above (top), or close on "
+                             "its left hand (hand)")
     parent.add_argument("--quiet", action="store_true", help="no progress bar")
     disturb = parent.add_argument_group("disturbances of the simulated robot (docs/robustness.md)")
     disturb.add_argument("--push", action="append", default=[], metavar="TIME:ANGLE_DEG:IMPULSE",
@@ -72,10 +76,23 @@ def simulation(args: argparse.Namespace, robot=None, prop=None):
         check_real_robot(args, disturbances, robot)
     try:
         return robot, disturbances, open_hardware(args.hw, robot, args.bus_config, viewer=args.viewer,
-                                                  video=args.video, disturbances=disturbances, prop=prop,
+                                                  video=video_request(args, robot), disturbances=disturbances,
+                                                  prop=prop,
                                                   allow_drives_without_timeout=args.allow_drives_without_timeout)
     except (FileNotFoundError, ValueError) as exc:
         raise ConfigError(f"--hw {args.hw}: {exc}") from exc
+
+
+def video_request(args: argparse.Namespace, robot=None):
+    """``--video`` and ``--camera`` as a :class:`~robot_ctrl.sim.mujoco_video.Video` (None: no video); the
+    command's default camera is its ``default_camera``."""
+    from robot_ctrl.sim.mujoco_video import Video
+
+    if args.video is None:
+        return None
+    view = CameraView(args.camera or getattr(args, "default_camera", CameraView.FOLLOW.value))
+    hand = None if robot is None else f"{robot.name}/{robot.config.hands['left']}"
+    return Video(Path(args.video), view, hand)
 
 
 def check_controller_config(robot) -> None:

@@ -90,7 +90,7 @@ def _synth_transition(args: argparse.Namespace) -> int:
         distances = ()
     if len(distances) != 2 or not all(0 < d <= MAX_GOAL_DISTANCE for d in distances):
         raise ConfigError(f"synth-transition: --distances {args.distances!r} must be two distances in "
-                          f"(0, {MAX_GOAL_DISTANCE}] m, e.g. 1.10,1.30")
+                          f"(0, {MAX_GOAL_DISTANCE}] m, e.g. 1.15,1.35")
     robot, primitives = _synth_primitives(args)
     if args.slot not in primitives.slots:
         raise ConfigError(f"synth-transition: --slot {args.slot!r} is not one of {', '.join(primitives.slots)}")
@@ -169,7 +169,7 @@ def add_parsers(sub, robot) -> None:
                        description="Synthesizes two goals whose short cycles differ in length (the same comfort "
                                    "distance at the end) and compares the upper body at the switch to standing and at "
                                    "the end (thesis Fig. 3.38; kinematic).")
-    p.add_argument("--distances", default="1.10,1.30", help="two goal distances from the synthesis's start [m]")
+    p.add_argument("--distances", default="1.15,1.35", help="two goal distances from the synthesis's start [m]")
     p.add_argument("--slot", default="back_right", help="object slot")
     p.add_argument("--plot", type=Path, default=None, help="PNG of both postures, side view")
     p.set_defaults(run=_synth_transition)

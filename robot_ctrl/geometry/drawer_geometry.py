@@ -17,15 +17,22 @@ from dataclasses import dataclass, field, fields, replace
 import numpy as np
 
 #: What the drawer cabinet's prop reports each tick in simulation (``JointState.scene``, in this
-#: order): the drawer's opening [m], its velocity [m/s], the hand's pull on it [N], the grasp (1 or
-#: 0), the left hand to the handle [m], the right hand to the object [m], the cabinet's distance [m].
-DRAWER_READINGS = ("drawer_opening_m", "drawer_velocity_mps", "drawer_pull_force_n", "grasped",
-                   "left_hand_to_handle_m", "right_hand_to_object_m", "cabinet_distance_m")
+#: order), all from the physics' contacts and bodies: the drawer's opening [m] and velocity [m/s];
+#: the robot's contact force on the drawer along its opening [N]; the left hand's fingers touching the
+#: handle (1 or 0) and their contact force [N]; the left hand's slip along the handle since its
+#: fingers first touched it [m]; the left hand to the handle's grip point and the right hand to the
+#: object's reach point [m]; the cabinet's distance [m]; the object's height gain [m], its contact
+#: with the right hand's fingers (1 or 0) and their force on it [N]; the robot's other contacts with
+#: the cabinet, its drawer and the objects: how many, and the largest force [N].
+DRAWER_READINGS = ("drawer_opening_m", "drawer_velocity_mps", "drawer_pull_force_n", "grasped", "grip_force_n",
+                   "handle_slip_m", "left_hand_to_handle_m", "right_hand_to_object_m", "cabinet_distance_m",
+                   "object_lift_m", "object_held", "object_grip_force_n", "unintended_contacts",
+                   "unintended_force_n")
 
 SLOTS = ("front_left", "front_right", "back_left", "back_right")
 
 
-_MASS_LIKE = ("drawer_mass", "slide_damping", "slide_friction")
+_MASS_LIKE = ("drawer_mass", "object_mass", "slide_damping", "slide_friction")
 
 
 def cabinet_distance(distance: float, jumps, t: float) -> float:
@@ -37,18 +44,23 @@ def cabinet_distance(distance: float, jumps, t: float) -> float:
 @dataclass(frozen=True)
 class DrawerGeometry:
     # Where the left gripper base sits when its fingers are round the handle bar; the bar lies in
-    # front of it by ``bar_from_grip`` (between the closed fingers and the thumb of Talos's gripper).
-    handle_grip: tuple[float, float, float] = (-0.13, 0.15, 0.10)
-    bar_from_grip: tuple[float, float, float] = (0.06, -0.035, -0.02)
+    # front of it by ``bar_from_grip``: 8.5 cm out along Talos's fingers (pointing at the drawer),
+    # between the palm and the fingertip pads, which closed cage it. The bar stands on long posts, so
+    # that the 15 cm fingers reaching past it stay clear of the panel.
+    handle_grip: tuple[float, float, float] = (-0.11, 0.22, 0.09)
+    bar_from_grip: tuple[float, float, float] = (0.02, -0.12, 0.0)
+    handle_radius: float = 0.011  # [m] the bar's
+    handle_span: float = 0.14  # [m] between the bar's two posts: room for the fingers along it
     clearance: dict = field(default_factory=lambda: {"front": 0.14, "back": 0.28})  # thesis 3.3.1
-    margin: float = 0.04  # extra opening beyond the clearance
+    margin: float = 0.02  # extra opening beyond the clearance
     # Objects (dowels) stand in the drawer: depth behind the front panel, y; the right gripper base
-    # reaches ``object_z`` (above the dowel's top).
+    # reaches ``object_z``, above the dowel's top, its wrist clear of the drawer's front panel.
     object_depth: dict = field(default_factory=lambda: {"front": 0.06, "back": 0.26})
     object_y: dict = field(default_factory=lambda: {"left": -0.02, "right": -0.16})
-    object_z: float = 0.06
-    dowel_height: float = 0.10  # [m] standing on the drawer's bottom
-    dowel_radius: float = 0.015
+    object_z: float = 0.36
+    dowel_height: float = 0.10  # [m] standing on the drawer's bottom, loose
+    dowel_radius: float = 0.02
+    object_mass: float = 0.3  # [kg] each dowel's
     # The drawer: a box behind its front panel, on a slide joint along x.
     drawer_depth: float = 0.40
     drawer_y: tuple[float, float] = (-0.28, 0.24)

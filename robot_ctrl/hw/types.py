@@ -15,7 +15,7 @@ import numpy as np
 from robot_ctrl.kernels import VECTOR, kernel
 
 #: Readings a simulated scene's props may report per tick (``JointState.scene``).
-SCENE_CHANNELS = 8
+SCENE_CHANNELS = 16
 
 
 class LifecycleState(enum.Enum):

@@ -7,7 +7,7 @@ Units are SI; angles in radians.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -87,6 +87,12 @@ class Grippers:
 
     closes_toward: Mapping[str, str]
     opening: float
+    # The left hand frame's orientation at the handle, as roll, pitch, yaw [rad] in the task's frame
+    # (x toward the drawer, z up); None: left to the synthesized posture.
+    hand_rpy: tuple[float, float, float] | None = None
+    # True: the hand holds the handle as a hook, its fingers open behind the bar (their open limit
+    # takes the pull); False: the gripper closes round the bar.
+    hook: bool = False
 
     def closing_sign(self, side: Side) -> float:
         """+1 where the gripper closes toward its upper limit, -1 toward its lower."""
@@ -131,14 +137,22 @@ class RobotConfig:
     # The walk-and-reach task at this robot's size (``drawer.scale``, Talos 1): the cabinet, and the
     # demonstrations' gait lengths (robot_ctrl/synthesis/demonstrations.py)
     drawer_scale: float = 1.0
+    # Where this robot's hand holds the handle, at its own size (``drawer.handle_grip``,
+    # ``drawer.bar_from_grip`` [m]); None: the scaled cabinet's
+    drawer_grip: tuple[tuple[float, float, float], tuple[float, float, float]] | None = None
     drawer_dynfilter: FilterMode = FilterMode.FULL  # the drawer task's default dynamic filter (``drawer.dynfilter``)
     # joint -> (lower, upper) [rad]: ranges the IK keeps narrower than the URDF's (``limits.ik_ranges``)
     ik_ranges: Mapping[str, tuple[float, float]] = field(default_factory=dict)
+    # Links the simulation leaves without collision geometry (``simulation.links_without_collision``)
+    links_without_collision: tuple[str, ...] = ()
 
     @property
     def drawer(self) -> DrawerGeometry:
         """The walk-and-reach task's cabinet at this robot's size."""
-        return DrawerGeometry().scaled(self.drawer_scale)
+        geometry = DrawerGeometry().scaled(self.drawer_scale)
+        if self.drawer_grip is None:
+            return geometry
+        return replace(geometry, handle_grip=self.drawer_grip[0], bar_from_grip=self.drawer_grip[1])
 
     @property
     def frames(self) -> dict[str, str]:
@@ -273,7 +287,7 @@ def parse_robot_config(raw: Mapping[str, Any], source: str = "robot config") -> 
         raise ConfigError(f"{source}: stabilizer must map stabilizer gains to values")
     limits = _field(raw, "limits", source, Mapping)
     sim = _field(raw, "simulation", source, Mapping)
-    drawer = _section(raw, "drawer", ("scale", "dynfilter"), source)
+    drawer = _section(raw, "drawer", ("scale", "dynfilter", "handle_grip", "bar_from_grip"), source)
     drawer_scale = _number(drawer, "scale", f"{source}: drawer", 0.3, 2.0) if "scale" in drawer else 1.0
     return RobotConfig(
         name=_field(raw, "name", source, str),
@@ -316,9 +330,36 @@ def parse_robot_config(raw: Mapping[str, Any], source: str = "robot config") -> 
         gait_swing=_gait_swing(raw.get("gait_swing") or {}, posture, source),
         grippers=_grippers(raw, source),
         drawer_scale=drawer_scale,
+        drawer_grip=_drawer_grip(drawer, source),
         drawer_dynfilter=_filter_mode(drawer.get("dynfilter", FilterMode.FULL.value), source),
         ik_ranges=_ik_ranges(limits.get("ik_ranges") or {}, posture, source),
+        links_without_collision=_names(sim.get("links_without_collision") or [],
+                                       f"{source}: simulation.links_without_collision"),
     )
+
+
+def _drawer_grip(drawer: Mapping[str, Any], source: str):
+    """``drawer.handle_grip`` and ``drawer.bar_from_grip``, both or neither: [x, y, z] [m], each within 1 m."""
+    given = [key for key in ("handle_grip", "bar_from_grip") if key in drawer]
+    if not given:
+        return None
+    if len(given) != 2:
+        raise ConfigError(f"{source}: drawer.handle_grip and drawer.bar_from_grip go together ({given[0]} alone)")
+    out = []
+    for key in ("handle_grip", "bar_from_grip"):
+        xyz = drawer[key]
+        if not (isinstance(xyz, list) and len(xyz) == 3 and all(
+                isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and abs(v) <= 1.0
+                for v in xyz)):
+            raise ConfigError(f"{source}: drawer.{key} must be [x, y, z] in metres, each within 1 m, got {xyz!r}")
+        out.append(tuple(float(v) for v in xyz))
+    return tuple(out)
+
+
+def _names(raw: Any, where: str) -> tuple[str, ...]:
+    if not isinstance(raw, list) or not all(isinstance(n, str) for n in raw):
+        raise ConfigError(f"{where} must be a list of link names")
+    return tuple(raw)
 
 
 def _ik_ranges(raw: Any, posture: Mapping[str, Any], source: str) -> Mapping[str, tuple[float, float]]:
@@ -357,13 +398,22 @@ def _section(raw: Mapping[str, Any], name: str, keys: tuple[str, ...], source: s
 
 
 def _grippers(raw: Mapping[str, Any], source: str) -> Grippers:
-    grasp = _section(raw, "grasp", ("closes_toward", "opening"), source)
+    grasp = _section(raw, "grasp", ("closes_toward", "opening", "hand_rpy", "hook"), source)
     if not grasp:
         return DEFAULT_GRIPPERS
     closes = _field(grasp, "closes_toward", f"{source}: grasp", Mapping)
     if set(closes) != {"left", "right"} or not set(closes.values()) <= {"upper", "lower"}:
         raise ConfigError(f"{source}: grasp.closes_toward must map left and right to upper or lower, got {closes!r}")
-    return Grippers(dict(closes), _number(grasp, "opening", f"{source}: grasp", 0.05, 3.0))
+    rpy = grasp.get("hand_rpy")
+    if rpy is not None and not (isinstance(rpy, list) and len(rpy) == 3 and all(
+            isinstance(a, (int, float)) and not isinstance(a, bool) and math.isfinite(a) and abs(a) <= math.pi
+            for a in rpy)):
+        raise ConfigError(f"{source}: grasp.hand_rpy must be [roll, pitch, yaw], each in [-pi, pi] rad, got {rpy!r}")
+    hook = grasp.get("hook", False)
+    if not isinstance(hook, bool):
+        raise ConfigError(f"{source}: grasp.hook must be true or false, got {hook!r}")
+    return Grippers(dict(closes), _number(grasp, "opening", f"{source}: grasp", 0.05, 3.0),
+                    None if rpy is None else tuple(float(a) for a in rpy), hook)
 
 
 def _gait_swing(raw: Mapping[str, Any], posture: Mapping[str, Any], source: str) -> tuple[GaitSwing, ...]:

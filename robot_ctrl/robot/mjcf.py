@@ -5,6 +5,14 @@ free-floating base, one position servo per actuated joint, the config's added fr
 bodies fixed to their link), sole boxes in place of the feet's URDF collision geometry where the
 config asks, self-collision exclusions from the SRDF (computed, when the robot ships none, by
 :mod:`robot_ctrl.robot.self_collision`), ``implicitfast`` integrator and the config's physics step.
+
+Linkages: a URDF joint with a ``<mimic>`` tag whose leader is one of the robot's joints moves with
+it in the simulation, even where the URDF made it ``fixed`` (a reduced model's gripper fingers): a
+hinge on its axis and within its limits, coupled to the leader by a joint equality
+``q = offset + multiplier q_leader``. The robot's own mechanism, driven by the leader's one servo;
+the planning model (Pinocchio) keeps such joints as the URDF states them. MuJoCo collides a mesh
+by its convex hull: where that hull would fill space the real link leaves open (a C-shaped frame),
+the config's ``simulation.links_without_collision`` are left without collision.
 The result is written
 to a cache (``$ROBOT_CTRL_CACHE`` or ``~/.cache/robot_ctrl``) keyed by a hash of everything
 that goes into it; nothing generated is ever committed.
@@ -23,6 +31,7 @@ from __future__ import annotations
 import hashlib
 import os
 import tempfile
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import mujoco
@@ -35,6 +44,9 @@ from robot_ctrl.robot.description import RobotFiles, example_robot_data_version,
 from robot_ctrl.robot.self_collision import compute_exclusions
 
 SCENE = ROOT / "sim" / "floor.xml"
+#: [kg·m²] A coupled linkage joint's rotor inertia: its links weigh grams, and without one the equality's
+#: stiffness against them is beyond what the physics step integrates.
+_LINKAGE_ARMATURE = 1e-4
 _COMPILER = '<mujoco><compiler strippath="false" discardvisual="true" fusestatic="false" autolimits="true"/></mujoco>'
 
 
@@ -74,11 +86,18 @@ def robot_spec(config: RobotConfig, files: RobotFiles, kp: np.ndarray, kd: np.nd
         act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
         act.forcerange = [-effort[i], effort[i]]
         act.ctrllimited = mujoco.mjtLimited.mjLIMITED_FALSE
+    _couple_mimic_joints(spec, urdf, set(config.joint_names), config.timestep)
     for frame in config.added_frames:
         parent = spec.body(frame.parent)
         if parent is None:
             raise ConfigError(f"added_frames.{frame.name}.parent {frame.parent!r} is not a link of the URDF")
         parent.add_body(name=frame.name, pos=list(frame.xyz), quat=_quat_wxyz(frame.rpy))
+    for link in config.links_without_collision:
+        body = spec.body(link)
+        if body is None:
+            raise ConfigError(f"simulation.links_without_collision: {link!r} is not a link of the URDF")
+        for geom in body.geoms:
+            geom.contype = geom.conaffinity = 0
     if config.foot.box_height is not None:
         for side, sole in config.feet.items():
             _replace_foot_collision(spec, sole, config.foot)
@@ -92,6 +111,29 @@ def robot_spec(config: RobotConfig, files: RobotFiles, kp: np.ndarray, kd: np.nd
             ex = spec.add_exclude()
             ex.bodyname1, ex.bodyname2 = a, b
     return spec
+
+
+def _couple_mimic_joints(spec: mujoco.MjSpec, urdf: str, servoed: set[str], timestep: float) -> None:
+    """Each URDF joint that mimics one of the ``servoed`` joints, and has no servo of its own, moves
+    coupled to its leader (module docstring): a hinge is added where the URDF made it fixed."""
+    for joint in ET.fromstring(urdf).iter("joint"):
+        name, mimic = joint.get("name"), joint.find("mimic")
+        if mimic is None or mimic.get("joint") not in servoed or name in servoed:
+            continue
+        if spec.joint(name) is None:
+            axis, limit = joint.find("axis"), joint.find("limit")
+            hinge = spec.body(joint.find("child").get("link")).add_joint(
+                name=name, type=mujoco.mjtJoint.mjJNT_HINGE,
+                axis=[float(x) for x in (axis.get("xyz") if axis is not None else "1 0 0").split()])
+            if limit is not None:
+                hinge.range = [float(limit.get("lower", 0.0)), float(limit.get("upper", 0.0))]
+            hinge.armature = _LINKAGE_ARMATURE
+        coupling = spec.add_equality(type=mujoco.mjtEq.mjEQ_JOINT, name1=name, name2=mimic.get("joint"))
+        coupling.data[0:2] = [float(mimic.get("offset", 0.0)), float(mimic.get("multiplier", 1.0))]
+        # A linkage is rigid: the constraint as stiff as the physics step integrates (MuJoCo's default
+        # time constant, 20 ms, lets a fingertip pushed by a handle swing out of the way).
+        coupling.solref = [2 * timestep, 1.0]
+        coupling.solimp = [0.95, 0.99, 0.001, 0.5, 2.0]
 
 
 def _quat_wxyz(rpy: tuple[float, float, float]) -> list[float]:

@@ -25,13 +25,14 @@ from robot_ctrl.eval.recording.recorders import Fell, MetricsRecorder, ProgressB
 from robot_ctrl.eval.reports.group_walk_report import TouchdownRecorder, group_walk_report
 from robot_ctrl.robot.model import RobotModel
 from robot_ctrl.sim.disturbances import Disturbances
+from robot_ctrl.sim.mujoco_video import Video
 from robot_ctrl.wpg.params import WalkParams
 
 STAND_AFTER = 1.5  # [s] standing after the stop
 
 
 def run_group_walk(robot: RobotModel, g: GroupWalk = GroupWalk(), hw_kind: str = "mujoco", *,
-                   out_dir: Path | None = None, viewer: bool = False, video: Path | None = None,
+                   out_dir: Path | None = None, viewer: bool = False, video: Video | Path | None = None,
                    log: Callable[[str], None] = print, progress: bool = False, control_dt: float = 0.005,
                    disturbances: Disturbances = Disturbances()) -> dict:
     coupling, bridge, profile, conditions = certified_coupling(robot.name, g, WalkParams().step_period, log)

@@ -12,5 +12,6 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     "prop": ["Prop", "PropInWorld"],
     "drawer_cabinet": ["DrawerCabinet", "DrawerPlacement"],
     "disturbances": ["Disturbances", "Push"],
-    "mujoco_video": ["WorldVideo"],
+    "mujoco_video": ["Video", "WorldVideo"],
+    "contacts": ["contact_forces", "geoms_of_bodies", "subtree"],
 })

@@ -6,14 +6,13 @@ scene serves every distance: :class:`DrawerCabinet` places it at run time ``dist
 robot's start pose along its start heading, with the drawer's panel at the standing pelvis height
 as the geometry's frame says, and moves it when a goal jump is due. The drawer slides on a joint
 (0 closed .. ``travel`` open, toward the robot) with viscous damping and dry friction, so pulling it
-takes a real force; a dowel stands in each of the four slots.
+takes a real force; a loose dowel of the geometry's mass stands in each of the four slots.
 
-Grasp, stated: the converted Talos model's fingers are fixed links (only the gripper joint moves),
-so they cannot close round a bar. The grasp is a weld of position (a MuJoCo ``connect`` equality:
-the gripper base's origin pinned to the drawer, free to turn about it as a hand round a bar can),
-switched on from measured quantities only: the gripper joint closed and the gripper base within
-``GRASP_DISTANCE`` of the handle's grip point. The cabinet does not collide with the robot (the
-hand's collision shapes would fight the weld); the drawer's travel is its joint's range.
+Everything collides: the robot touches the cabinet, its drawer, the handle and the dowels as it
+would touch furniture. Nothing ties the robot to the world: the hand holds the handle by its
+fingers' contacts and their friction alone. Friction cones are elliptic with ``IMPRATIO``
+(MuJoCo's ``option/impratio``), which makes friction grasps hold without raising μ. What the cabinet
+reports (``DRAWER_READINGS``) is measured from the physics' contacts and bodies.
 """
 
 from __future__ import annotations
@@ -31,13 +30,13 @@ import numpy as np
 from robot_ctrl import __version__
 from robot_ctrl.geometry import Side, other
 from robot_ctrl.geometry.drawer_geometry import DRAWER_READINGS, SLOTS, DrawerGeometry, cabinet_distance
+from robot_ctrl.sim.contacts import contact_forces, geoms_of_bodies, subtree
 
 if TYPE_CHECKING:
     from robot_ctrl.robot.model import RobotModel
 
-GRASP_DISTANCE = 0.01  # [m] gripper base to the handle's grip point for the weld to switch on
-GRIPPER_CLOSED = 0.1  # [rad] the gripper joint within this of its closed end is closed
 GRASP_SIDE: Side = "left"
+IMPRATIO = 10.0  # frictional to normal constraint impedance (MuJoCo's option/impratio)
 
 
 @dataclass(frozen=True)
@@ -57,27 +56,24 @@ class DrawerPlacement:
 
     # The prop interface (``sim/prop.py``) ------------------------------------------------------
     def scene_mjcf(self, robot: RobotModel) -> Path:
-        return drawer_scene_mjcf(robot.mjcf_path, self.geometry or robot.config.drawer,
-                                 f"{robot.name}/{robot.config.hands[GRASP_SIDE]}")
+        return drawer_scene_mjcf(robot.mjcf_path, self.geometry or robot.config.drawer)
 
     def in_world(self, m: mujoco.MjModel, robot: RobotModel, prefix: str, start_xy_yaw: np.ndarray) -> DrawerCabinet:
-        return DrawerCabinet(m, self, prefix, start_xy_yaw, robot.config.hands,
-                             robot.config.joint_roles["grippers"][GRASP_SIDE],
-                             robot.config.grippers.closing_sign(GRASP_SIDE))
+        return DrawerCabinet(m, self, self.geometry or robot.config.drawer, prefix, start_xy_yaw, robot.config.hands)
 
 
 def _box(body, name: str, lo, hi, rgba) -> None:
     lo, hi = np.asarray(lo, float), np.asarray(hi, float)
-    geom = body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_BOX, size=(hi - lo) / 2, pos=(hi + lo) / 2,
-                         rgba=rgba)
-    geom.contype = geom.conaffinity = 0
+    body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_BOX, size=(hi - lo) / 2, pos=(hi + lo) / 2, rgba=rgba)
 
 
-def add_cabinet(spec: mujoco.MjSpec, geometry: DrawerGeometry, hand_body: str) -> None:
-    """The cabinet (mocap body ``cabinet``), its drawer on the slide ``drawer_slide``, the dowels, the
-    sites ``handle_grip`` and ``slot_<slot>``, and the inactive position weld ``grasp`` of ``hand_body``
-    to the drawer. Frame of the cabinet body: the pelvis-at-comfort frame of the geometry, moved so that
-    the closed panel is at x = 0."""
+def add_cabinet(spec: mujoco.MjSpec, geometry: DrawerGeometry) -> None:
+    """The cabinet (mocap body ``cabinet``), its drawer on the slide ``drawer_slide`` with the handle
+    (geoms ``handle_*``), the sites ``handle_grip`` and ``slot_<slot>``, and a loose dowel
+    ``object_<slot>`` per slot (placed at run time). Frame of the cabinet body: the pelvis-at-comfort
+    frame of the geometry, moved so that the closed panel is at x = 0."""
+    spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+    spec.option.impratio = IMPRATIO
     g = geometry
     wood, dark, metal = [0.62, 0.45, 0.3, 1], [0.45, 0.32, 0.2, 1], [0.75, 0.75, 0.78, 1]
     cabinet = spec.worldbody.add_body(name="cabinet", mocap=True)
@@ -106,36 +102,32 @@ def add_cabinet(spec: mujoco.MjSpec, geometry: DrawerGeometry, hand_body: str) -
     _box(drawer, "drawer_right", [0.02, y0, zb], [g.drawer_depth, y0 + 0.01, zw], wood)
     grip = np.array(g.handle_grip)
     bar = grip + g.bar_from_grip
-    for name, a, b in (("handle_bar", bar - [0, 0, 0.06], bar + [0, 0, 0.06]),
-                       ("handle_upper", bar + [0, 0, 0.05], [0.0, bar[1], bar[2] + 0.05]),
-                       ("handle_lower", bar - [0, 0, 0.05], [0.0, bar[1], bar[2] - 0.05])):
-        geom = drawer.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_CAPSULE, size=[0.011, 0, 0], rgba=metal,
-                               fromto=np.concatenate([a, b]))
-        geom.contype = geom.conaffinity = 0
+    half = np.array([0.0, 0.0, g.handle_span / 2])
+    for name, a, b in (("handle_bar", bar - half - [0, 0, 0.01], bar + half + [0, 0, 0.01]),
+                       ("handle_upper", bar + half, [0.0, bar[1], bar[2] + half[2]]),
+                       ("handle_lower", bar - half, [0.0, bar[1], bar[2] - half[2]])):
+        drawer.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_CAPSULE, size=[g.handle_radius, 0, 0], rgba=metal,
+                        fromto=np.concatenate([a, b]))
     drawer.add_site(name="handle_grip", pos=grip, size=[0.008, 0, 0], rgba=[0.1, 0.8, 0.1, 1])
     for slot in SLOTS:
-        target = g.object_in_drawer(slot)
-        geom = drawer.add_geom(name=f"dowel_{slot}", type=mujoco.mjtGeom.mjGEOM_CYLINDER,
-                               size=[g.dowel_radius, g.dowel_height / 2, 0], rgba=[0.85, 0.2, 0.15, 1],
-                               pos=[target[0], target[1], zb + g.dowel_height / 2])
-        geom.contype = geom.conaffinity = 0
-        drawer.add_site(name=f"slot_{slot}", pos=target, size=[0.008, 0, 0], rgba=[0.9, 0.9, 0.1, 1])
-    weld = spec.add_equality(name="grasp", type=mujoco.mjtEq.mjEQ_CONNECT, objtype=mujoco.mjtObj.mjOBJ_BODY,
-                             name1=hand_body, name2="drawer")
-    weld.active = False
+        drawer.add_site(name=f"slot_{slot}", pos=g.object_in_drawer(slot), size=[0.008, 0, 0], rgba=[0.9, 0.9, 0.1, 1])
+        dowel = spec.worldbody.add_body(name=f"object_{slot}")
+        dowel.add_freejoint(name=f"object_{slot}")
+        dowel.add_geom(name=f"dowel_{slot}", type=mujoco.mjtGeom.mjGEOM_CYLINDER, mass=g.object_mass,
+                       size=[g.dowel_radius, g.dowel_height / 2, 0], rgba=[0.85, 0.2, 0.15, 1])
 
 
-def drawer_scene_mjcf(robot_scene: Path, geometry: DrawerGeometry, hand_body: str) -> Path:
+def drawer_scene_mjcf(robot_scene: Path, geometry: DrawerGeometry) -> Path:
     """The robot's cached scene with the cabinet added, cached next to it (keyed by both and by this
     builder's own source)."""
     key = hashlib.sha256(b"".join(part.encode() if isinstance(part, str) else part for part in (
-        __version__, mujoco.__version__, repr(geometry), hand_body, robot_scene.read_bytes(),
+        __version__, mujoco.__version__, repr(geometry), robot_scene.read_bytes(),
         Path(__file__).read_bytes()))).hexdigest()[:16]
     path = robot_scene.with_name(f"{robot_scene.stem}-drawer-{key}.xml")
     if path.is_file():
         return path
     spec = mujoco.MjSpec.from_file(str(robot_scene))
-    add_cabinet(spec, geometry, hand_body)
+    add_cabinet(spec, geometry)
     spec.compile()
     with tempfile.NamedTemporaryFile("w", dir=path.parent, suffix=".tmp", delete=False) as tmp:
         tmp.write(spec.to_xml())
@@ -144,16 +136,16 @@ def drawer_scene_mjcf(robot_scene: Path, geometry: DrawerGeometry, hand_body: st
 
 
 class DrawerCabinet:
-    """The cabinet at run time, in the backend's process: placement, goal jumps, the grasp's
-    switch, and the scene's ground truth for the report (``JointState.scene``)."""
+    """The cabinet at run time, in the backend's process: placement, goal jumps, and the scene's
+    ground truth for the report (``JointState.scene``), measured from the physics."""
 
     STANDING = ("cabinet_left", "cabinet_right", "cabinet_back", "cabinet_base")  # geoms down to the floor
 
-    def __init__(self, m: mujoco.MjModel, placement: DrawerPlacement, prefix: str,
-                 start_xy_yaw: np.ndarray, hands: dict[str, str], gripper_joint: str, closing_sign: float = 1.0):
-        """``hands``: side → the robot's hand body (without ``prefix``); ``gripper_joint``: the
-        grasping hand's gripper, closing toward its upper limit (``closing_sign`` +1) or its lower (-1)."""
-        self.m, self.placement = m, placement
+    def __init__(self, m: mujoco.MjModel, placement: DrawerPlacement, geometry: DrawerGeometry, prefix: str,
+                 start_xy_yaw: np.ndarray, hands: dict[str, str]):
+        """``hands``: side → the robot's hand body (without ``prefix``); the bodies below a hand are its
+        fingers."""
+        self.m, self.placement, self.geometry = m, placement, geometry
         self.start = np.asarray(start_xy_yaw, dtype=float)
         self.mocap = int(m.body("cabinet").mocapid[0])
         self.drawer = m.body("drawer").id
@@ -161,65 +153,91 @@ class DrawerCabinet:
         self.slide_qpos, self.slide_dof = int(slide.qposadr[0]), int(slide.dofadr[0])
         self.hand = m.body(prefix + hands[GRASP_SIDE]).id
         self.reaching_hand = m.body(prefix + hands[other(GRASP_SIDE)]).id
-        gripper = m.joint(prefix + gripper_joint)
-        self.gripper_qpos, self.closing_sign = int(gripper.qposadr[0]), closing_sign
-        self.gripper_closed_at = float(gripper.range[1] if closing_sign > 0 else gripper.range[0])
         self.grip_site, self.slot_site = m.site("handle_grip").id, m.site(f"slot_{placement.slot}").id
-        self.weld = m.equality("grasp").id
+        self.object = m.body(f"object_{placement.slot}").id
+        self.objects = [m.body(f"object_{slot}").id for slot in SLOTS]
+        self.object_rest_z = np.nan
+        # Geom groups: the two hands (with their fingers), the handle, the object, the robot and the furniture.
+        root = m.body(prefix + hands[GRASP_SIDE]).rootid[0]
+        self.robot_geoms = geoms_of_bodies(m, subtree(m, int(root)))
+        self.hand_geoms = geoms_of_bodies(m, subtree(m, self.hand))
+        self.reaching_geoms = geoms_of_bodies(m, subtree(m, self.reaching_hand))
+        self.handle_geoms = np.array([m.geom(i).name.startswith("handle_") for i in range(m.ngeom)])
+        self.object_geoms = geoms_of_bodies(m, [self.object])
+        self.drawer_geoms = geoms_of_bodies(m, [self.drawer])
+        self.furniture_geoms = geoms_of_bodies(m, [m.body("cabinet").id, self.drawer, *self.objects])
         self.pelvis_height = 0.0
         self.distance = placement.distance
-        self.grasp_time = np.nan
-        self._force = np.zeros(m.nv)
+        self._grip_in_hand: np.ndarray | None = None  # the handle's grip point in the hand frame at first touch
 
     def place(self, d: mujoco.MjData, pelvis_height: float, t: float = 0.0) -> None:
-        """Put the cabinet at the placement's distance for time ``t`` (panel at ``pelvis_height``)."""
-        self.pelvis_height = pelvis_height
+        """Put the cabinet at the placement's distance for time ``t`` (panel at ``pelvis_height``), and
+        each dowel standing in its slot."""
         for name in self.STANDING:  # stretch down to the floor
             geom = self.m.geom(name)
             top = geom.pos[2] + geom.size[2]
             geom.size[2], geom.pos[2] = (top + pelvis_height) / 2, (top - pelvis_height) / 2
+        self.pelvis_height = pelvis_height
         self.distance = self.placement.distance_at(t)
         x, y, yaw = self.start
         d.mocap_pos[self.mocap] = [x + self.distance * np.cos(yaw), y + self.distance * np.sin(yaw), pelvis_height]
         d.mocap_quat[self.mocap] = [np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)]
+        mujoco.mj_kinematics(self.m, d)
+        g = self.geometry
+        for slot, body in zip(SLOTS, self.objects):  # upright on the drawer's bottom, under the slot's site
+            x, y, z = d.site_xpos[self.m.site(f"slot_{slot}").id]
+            adr = int(self.m.jnt_qposadr[self.m.body_jntadr[body]])
+            dof = int(self.m.jnt_dofadr[self.m.body_jntadr[body]])
+            d.qpos[adr:adr + 7] = [x, y, z - g.object_z + g.drawer_bottom_z + g.dowel_height / 2, 1.0, 0.0, 0.0, 0.0]
+            d.qvel[dof:dof + 6] = 0.0
+        mujoco.mj_kinematics(self.m, d)
+        self.object_rest_z = float(d.xpos[self.object][2])
 
     def before_period(self, d: mujoco.MjData) -> None:
-        """Move the cabinet when a jump is due; switch the grasp on when its measured condition holds."""
+        """Move the cabinet (and the dowels with it) when a jump is due."""
         if self.placement.distance_at(d.time) != self.distance:
             self.place(d, self.pelvis_height, d.time)
-            mujoco.mj_kinematics(self.m, d)
-        if not d.eq_active[self.weld] and self.grasp_ready(d):
-            self._weld_as_is(d)
-            self.grasp_time = float(d.time)
-
-    def grasp_ready(self, d: mujoco.MjData) -> bool:
-        closed = self.closing_sign * (d.qpos[self.gripper_qpos] - self.gripper_closed_at) >= -GRIPPER_CLOSED
-        return bool(closed and self.hand_to_handle(d) <= GRASP_DISTANCE)
 
     def hand_to_handle(self, d: mujoco.MjData) -> float:
         return float(np.linalg.norm(d.xpos[self.hand] - d.site_xpos[self.grip_site]))
 
-    def _weld_as_is(self, d: mujoco.MjData) -> None:
-        """Pin the hand's origin to the drawer where it is now (no jump when it switches on)."""
-        drawer_rot = d.xmat[self.drawer].reshape(3, 3)
-        self.m.eq_data[self.weld, 0:3] = 0.0  # the hand body's origin ...
-        self.m.eq_data[self.weld, 3:6] = drawer_rot.T @ (d.xpos[self.hand] - d.xpos[self.drawer])  # ... in the drawer
-        d.eq_active[self.weld] = 1
-
-    def pull_force(self, d: mujoco.MjData) -> float:
-        """The hand's force on the drawer along its opening direction [N]: the weld's constraint force
-        on the slide."""
-        if not d.eq_active[self.weld]:
-            return 0.0
-        rows = (d.efc_type == mujoco.mjtConstraint.mjCNSTR_EQUALITY) & (d.efc_id == self.weld)
-        mujoco.mj_mulJacTVec(self.m, d, self._force, np.where(rows, d.efc_force, 0.0))
-        return float(self._force[self.slide_dof])
+    def _handle_slip(self, d: mujoco.MjData, touching: bool) -> float:
+        """How far the handle's grip point moved in the hand's frame since the fingers first touched it [m]."""
+        rotation = d.xmat[self.hand].reshape(3, 3)
+        grip = rotation.T @ (d.site_xpos[self.grip_site] - d.xpos[self.hand])
+        if self._grip_in_hand is None:
+            if not touching:
+                return 0.0
+            self._grip_in_hand = grip
+        return float(np.linalg.norm(grip - self._grip_in_hand))
 
     def reading(self, d: mujoco.MjData) -> np.ndarray:
         """``DRAWER_READINGS`` now."""
+        m = self.m
+        opening = d.xmat[self.drawer].reshape(3, 3) @ m.jnt_axis[m.dof_jntid[self.slide_dof]]
+        on_drawer = contact_forces(m, d, self.drawer_geoms, self.robot_geoms)
+        grip = contact_forces(m, d, self.handle_geoms, self.hand_geoms)
+        held = contact_forces(m, d, self.object_geoms, self.reaching_geoms)
+        intended = self.handle_geoms | self.object_geoms
+        other_furniture = contact_forces(m, d, self.furniture_geoms & ~intended, self.robot_geoms)
+        stray_hand = contact_forces(m, d, self.handle_geoms, self.robot_geoms & ~self.hand_geoms)
+        stray_object = contact_forces(m, d, self.object_geoms, self.robot_geoms & ~self.reaching_geoms)
+        unintended = np.concatenate([other_furniture, stray_hand, stray_object])
+        touching = len(grip) > 0
         values = {"drawer_opening_m": d.qpos[self.slide_qpos], "drawer_velocity_mps": d.qvel[self.slide_dof],
-                  "drawer_pull_force_n": self.pull_force(d), "grasped": float(d.eq_active[self.weld]),
+                  "drawer_pull_force_n": float(on_drawer.sum(axis=0) @ opening) if len(on_drawer) else 0.0,
+                  "grasped": float(touching), "grip_force_n": _squeeze(grip),
+                  "handle_slip_m": self._handle_slip(d, touching),
                   "left_hand_to_handle_m": self.hand_to_handle(d),
                   "right_hand_to_object_m": np.linalg.norm(d.xpos[self.reaching_hand] - d.site_xpos[self.slot_site]),
-                  "cabinet_distance_m": self.distance}
+                  "cabinet_distance_m": self.distance,
+                  "object_lift_m": d.xpos[self.object][2] - self.object_rest_z,
+                  "object_held": float(len(held) > 0), "object_grip_force_n": _squeeze(held),
+                  "unintended_contacts": float(len(unintended)),
+                  "unintended_force_n": float(np.linalg.norm(unintended, axis=1).max()) if len(unintended) else 0.0}
         return np.array([values[name] for name in DRAWER_READINGS], dtype=float)
+
+
+def _squeeze(forces: np.ndarray) -> float:
+    """The contact forces' magnitudes, summed [N]: what fingers press on a thing from all sides."""
+    return float(np.linalg.norm(forces, axis=1).sum())

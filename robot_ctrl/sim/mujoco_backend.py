@@ -27,6 +27,7 @@ from robot_ctrl.hw.types import JointCommand, JointState
 from robot_ctrl.robot.joint_map import MujocoJointMap, pin_to_mujoco_qpos
 from robot_ctrl.robot.model import RobotModel
 from robot_ctrl.sim.disturbances import Disturbances
+from robot_ctrl.sim.mujoco_video import Video
 from robot_ctrl.sim.mujoco_world import MujocoWorld
 from robot_ctrl.sim.prop import Prop
 
@@ -42,7 +43,7 @@ class MujocoBackend(HardwareAdapter):
 
     def __init__(self, robot: RobotModel, control_dt: float = 0.005, base_xy_yaw=(0.0, 0.0, 0.0),
                  viewer: bool = False, world: MujocoWorld | None = None, prefix: str | None = None,
-                 video: Path | None = None, disturbances: Disturbances = Disturbances(),
+                 video: Video | Path | None = None, disturbances: Disturbances = Disturbances(),
                  prop: Prop | None = None):
         super().__init__(robot.nj)
         self.robot = robot

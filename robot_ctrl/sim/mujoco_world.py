@@ -23,14 +23,17 @@ import mujoco
 import mujoco.rollout
 import numpy as np
 
+from robot_ctrl.sim.mujoco_video import Video
+
 
 class MujocoWorld:
     #: What a physics state holds (``mj_getState``): time, qpos, qvel, act, mocap, user data.
     STATE = mujoco.mjtState.mjSTATE_FULLPHYSICS
 
-    def __init__(self, mjcf: Path, control_dt: float = 0.005, viewer: bool = False, video: Path | None = None,
+    def __init__(self, mjcf: Path, control_dt: float = 0.005, viewer: bool = False, video: Video | Path | None = None,
                  friction_scale: float = 1.0):
-        """``video``: write an MP4 of the run there (:class:`~robot_ctrl.sim.mujoco_video.WorldVideo`);
+        """``video``: record an MP4 of the run (:class:`~robot_ctrl.sim.mujoco_video.WorldVideo`; a path:
+        the follow camera);
         ``friction_scale``: every geom's sliding friction times this (``Disturbances``)."""
         self.m = mujoco.MjModel.from_xml_path(str(mjcf))
         self.m.geom_friction[:, 0] *= friction_scale
@@ -59,7 +62,7 @@ class MujocoWorld:
                        | (mujoco.mjtState.mjSTATE_EQ_ACTIVE if self.m.neq else 0))
         self._sensordata = np.zeros((1, n, m.nsensordata))
         self._rollout = mujoco.rollout.Rollout(nthread=0)  # runs on the calling thread
-        self._video_path = video
+        self._video = video if video is None or isinstance(video, Video) else Video(Path(video))
         self.video = None
         self._robots = self._submitted = 0
 
@@ -84,10 +87,10 @@ class MujocoWorld:
             import mujoco.viewer
 
             self._viewer = mujoco.viewer.launch_passive(self.m, self.d)
-        if self._video_path is not None and self.video is None:
+        if self._video is not None and self.video is None:
             from robot_ctrl.sim.mujoco_video import WorldVideo
 
-            self.video = WorldVideo(self.m, self._video_path)
+            self.video = WorldVideo(self.m, self._video)
             self.video.capture(self.d)
         self._wall0 = time.perf_counter() - self.d.time
 

@@ -58,6 +58,7 @@ TRUNK_POSTURE_FACTOR = 10.0
 #: A measured start configuration this close outside the URDF limits (encoder quantization,
 #: calibration) is clamped into them; farther out, the IK refuses it (``LimitViolation``).
 START_TOLERANCE = 0.01  # [rad]
+HAND_ORIENTATION_WEIGHT = 0.2  # [m/rad] of a hand's orientation rows against its position rows
 
 
 class WholeBodyIK:
@@ -93,12 +94,17 @@ class WholeBodyIK:
         self.com = ComTask(gain=gain, locked_dofs=locked)
         self.waist = FrameTask("waist", ids["waist"], axes=("rx", "ry", "rz"), gain=gain)
         self.hands = {s: FrameTask(f"{s}_hand", ids[f"{s}_hand"], axes=("x", "y", "z"), gain=gain) for s in SIDES}
+        # A hand's orientation, held only where a task asks for it (a hand holding a handle), and more
+        # loosely than its position: where the arm cannot keep both, the hand turns.
+        self.hand_orientations = {s: FrameTask(f"{s}_hand_orientation", ids[f"{s}_hand"], axes=("rx", "ry", "rz"),
+                                               gain=gain, weight=HAND_ORIENTATION_WEIGHT) for s in SIDES}
         self.posture = PostureTask("posture", robot.q_index, robot.v_index, robot.pin.nv, gain=gain,
                                    weight=posture_weight)
         self.posture.set_joint_weights(np.where(np.isin(robot.v_index, chain_dofs(robot, "torso")), trunk_weight, 1.0))
         self.solver = HierarchicalQP(
             [[self.feet["left"], self.feet["right"]], [self.com, self.waist],
-             [self.hands["left"], self.hands["right"], self.posture]],
+             [self.hands["left"], self.hands["right"], self.hand_orientations["left"],
+              self.hand_orientations["right"], self.posture]],
             JointLimits.from_robot(robot, upper_body_dofs(robot) if acceleration_limits else None))
         self.hold_current()
 
@@ -108,7 +114,8 @@ class WholeBodyIK:
         for s in SIDES:
             self.feet[s].set_target(self.pose(f"{s}_foot"))
             self.hands[s].set_target(self.pose(f"{s}_hand"))
-            self.hands[s].active = False
+            self.hand_orientations[s].set_target(self.pose(f"{s}_hand"))
+            self.hands[s].active = self.hand_orientations[s].active = False
         self.com.set_target(pin.centerOfMass(self.robot.pin, self.data, self.q))
         self.waist.set_target(self.pose("waist"))
         # Half-sitting puts the grippers on their URDF limit: aim inside the IK's soft limits instead,

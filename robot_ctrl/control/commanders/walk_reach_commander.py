@@ -154,10 +154,11 @@ class WalkReachCommander:
 
     @property
     def finished(self) -> bool:
-        """The sequence has ended, and the drawer is pulled (or the hand never got hold of it)."""
+        """The sequence has ended, the drawer is pulled and the right hand at the object (or the left
+        hand never got hold of the drawer)."""
         if self.synth is None or not self.synth.finished:
             return False
-        return self.hands.pulled or self.t - self.boundaries[-1][0] > GRASP_TIMEOUT
+        return self.hands.reached or (not self.hands.holding and self.t - self.boundaries[-1][0] > GRASP_TIMEOUT)
 
     def _goal(self, t: float) -> WalkReachGoal:
         """The drawer in the synthesizer's start frame (the pelvis where the synthesis started)."""
@@ -194,7 +195,7 @@ class WalkReachCommander:
         upper = self.output.upper_body_q
         self._posture_now = self.base_posture.copy()
         self._posture_now[self.body.upper] = upper
-        if self.output.action is Action.STAND:
+        if self.output.action is Action.STAND or self.synth.finished:  # the hands' work outlasts the sequence
             self.hands.stand(t, share, upper, self._posture_now, self._final_upper)
         elif self._last_short:
             self.hands.reach(t, share, upper, self._posture_now, self._final_upper)

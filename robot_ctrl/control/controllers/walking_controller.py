@@ -176,6 +176,7 @@ class WalkingController:
         self._v = np.zeros(robot.pin.nv)  # the IK's velocity at the last tick
         self._sample_hooks: list[Callable[[PlanSample], None]] = []
         self._hands: dict[str, tuple[np.ndarray, np.ndarray] | None] = {s: None for s in SIDES}
+        self._hand_rotations: dict[str, np.ndarray | None] = {s: None for s in SIDES}
         self._balance_shift = np.zeros(2)
         self._stance: _StanceSoles | None = None
         self._stance_unmeasured = False  # the last step's estimate is still to be added to _stance
@@ -201,11 +202,14 @@ class WalkingController:
         dynamic filter's preview over the horizon."""
         self.upper_body = posture
 
-    def set_hand_target(self, side: Side, position: np.ndarray | None, velocity: np.ndarray | None = None) -> None:
+    def set_hand_target(self, side: Side, position: np.ndarray | None, velocity: np.ndarray | None = None,
+                        rotation: np.ndarray | None = None) -> None:
         """Hand frame position [m] and velocity [m/s] (world frame) for the IK's hand task of ``side``
-        (upper-body level, above the posture); None frees the hand (posture only)."""
+        (upper-body level, above the posture); None frees the hand (posture only). ``rotation``: the
+        hand frame's orientation to hold (3 × 3, world frame), or None to leave it to the posture."""
         self._hands[side] = None if position is None else (np.asarray(position, float),
                                                            np.zeros(3) if velocity is None else np.asarray(velocity, float))
+        self._hand_rotations[side] = None if position is None or rotation is None else np.asarray(rotation, float)
 
     def shift_balance(self, offset_xy: np.ndarray) -> None:
         """Shift the CoM and ZMP references by ``offset_xy`` [m] (world frame), at most
@@ -260,6 +264,10 @@ class WalkingController:
     def reference_hand(self, side: Side) -> np.ndarray:
         """Hand frame position (3,) [m] of ``side`` in the reference configuration (world frame)."""
         return self.ik.pose(f"{side}_hand").translation.copy()
+
+    def reference_hand_rotation(self, side: Side) -> np.ndarray:
+        """Hand frame orientation (3 × 3) of ``side`` in the reference configuration (world frame)."""
+        return self.ik.pose(f"{side}_hand").rotation.copy()
 
     def footsteps(self) -> dict[Side, Footstep]:
         """The feet's current planned footsteps (world frame)."""
@@ -330,6 +338,10 @@ class WalkingController:
             ik.hands[side].active = hand is not None
             if hand is not None:
                 ik.hands[side].set_target(pin.SE3(np.eye(3), hand[0]), np.concatenate([hand[1], np.zeros(3)]))
+            rotation = self._hand_rotations[side]
+            ik.hand_orientations[side].active = rotation is not None
+            if rotation is not None:
+                ik.hand_orientations[side].set_target(pin.SE3(rotation, np.zeros(3)))
         waist_yaw = mean_yaw([ref.feet[s].yaw for s in SIDES])
         ik.waist.set_target(pin.SE3(pin.utils.rpyToMatrix(0.0, 0.0, waist_yaw), np.zeros(3)))
         return com, com_velocity

@@ -55,7 +55,7 @@ from robot_ctrl.synthesis.step_planning import Action
 #: (cabinet distance from the start pelvis [m], object slot): the first six give one normal cycle,
 #: a short one and standing; the last four a normal cycle more. All within the 1.83 m that drawn
 #: campaign trials stay beyond.
-FEASIBLE_BASES = ((1.36, "front_left"), (1.40, "back_right"), (1.44, "front_right"), (1.48, "back_left"),
+FEASIBLE_BASES = ((1.38, "front_left"), (1.40, "back_right"), (1.44, "front_right"), (1.48, "back_left"),
                   (1.52, "front_left"), (1.56, "back_right"), (1.64, "front_right"), (1.69, "back_left"),
                   (1.74, "back_right"), (1.80, "front_left"))
 FEASIBLE_SPEEDS = (SpeedClass.SLOW, SpeedClass.MIDDLE, SpeedClass.FAST)  # the thesis's 0.8, 0.92, 1.2

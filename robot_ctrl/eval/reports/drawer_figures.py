@@ -1,7 +1,8 @@
 """Figures of the drawer task for ``robot-ctrl report``: the thesis's Fig. 3.47 analog (ankle pitch
 torque and vertical ground reaction force of each foot against time, with their limits, the
-synthesized actions shaded) and the drawer itself (opening against the required clearance, both
-hands' distances to their targets)."""
+synthesized actions shaded) and the drawer itself (opening against the required clearance; the
+contact forces: the hand's pull on the drawer, the fingers' on the handle and on the object, the
+robot's other contacts with the furniture; both hands' distances to their targets)."""
 
 from __future__ import annotations
 
@@ -16,7 +17,7 @@ def drawer_figures(series: dict, report: dict) -> list[tuple[str, str]]:
     if "action_starts" not in series:
         return []
     return [("Ankle pitch torque and vertical GRF per foot, actions shaded (thesis Fig. 3.47)",
-             _ankle_and_grf(series)), ("The drawer and the hands", _drawer(series, report))]
+             _ankle_and_grf(series)), ("The drawer, the contact forces and the hands", _drawer(series, report))]
 
 
 def _shade_actions(ax, series) -> None:
@@ -56,18 +57,24 @@ def _drawer(series, report) -> str:
     import matplotlib.pyplot as plt
 
     t = series["drawer_t"]
-    fig, (top, bottom) = plt.subplots(2, 1, figsize=(10, 5), sharex=True)
+    fig, (top, middle, bottom) = plt.subplots(3, 1, figsize=(10, 7), sharex=True)
     top.plot(t, series["drawer_opening_m"], label="drawer opening")
     top.axhline(float(report["drawer_opening_required_m"]), color="C3", ls="--", label="required clearance")
     top.set_ylabel("[m]")
     top.legend(fontsize=8, loc="upper left")
+    middle.plot(t, series["drawer_pull_force_n"], lw=0.8, label="pull on the drawer (along its opening)")
+    middle.plot(t, series["grip_force_n"], lw=0.8, label="left fingers on the handle")
+    middle.plot(t, series["object_grip_force_n"], lw=0.8, label="right fingers on the object")
+    middle.plot(t, series["unintended_force_n"], lw=0.8, color="C3", label="other robot–furniture contact")
+    middle.set_ylabel("contact force [N]")
+    middle.legend(fontsize=8, loc="upper left")
     bottom.plot(t, series["left_hand_to_handle_m"], label="left hand to handle")
     bottom.plot(t, series["right_hand_to_object_m"], label="right hand to object")
     bottom.set_yscale("log")
     bottom.set_ylabel("[m]")
     bottom.set_xlabel("time [s]")
     bottom.legend(fontsize=8, loc="lower left")
-    for ax in (top, bottom):
+    for ax in (top, middle, bottom):
         _shade_actions(ax, series)
     fig.tight_layout()
     return figure_png(fig)

@@ -22,7 +22,7 @@ from robot_ctrl.synthesis.synthesizer import Synthesizer, WalkReachGoal
 
 #: The two goals compared (distances from the synthesis's start [m]) and their object slot: short
 #: cycles of about 17 and 25 cm before the same comfort distance.
-TRANSITION_DISTANCES = (1.10, 1.30)
+TRANSITION_DISTANCES = (1.15, 1.35)
 TRANSITION_SLOT = "back_right"
 
 
