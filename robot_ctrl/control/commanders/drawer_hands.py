@@ -36,7 +36,7 @@ from robot_ctrl.control.commanders.synthesized_body import SynthesizedBody
 from robot_ctrl.geometry import SIDES, Side, minimum_jerk
 
 REACH = (0.35, 0.95)  # share of the short cycle over which the left hand blends to the handle
-REACH_PHASE_TIME = 0.75  # [s] the right hand's rise to the object's height, and its way across to it
+REACH_PHASE_TIME = 1.0  # [s] the right hand's rise to the object's height, and its way across to it
 RISEN_WITHIN = 0.03  # [m] of the object's height, the measured right hand has risen
 DRAWER_CLEARANCE = 0.1  # [m] the waiting right hand keeps this far back from the open drawer's front
 CLOSE_DISTANCE = 0.03  # [m] the measured hand this near the handle: close the gripper

@@ -143,7 +143,7 @@ def _drawer(report: dict) -> Summary:
     figures = [f for _, _, f in criteria]
     if report.get("drawer_pull_force_peak_n") is not None:
         figures.append(KeyFigure("Peak pull on the drawer", f"{report['drawer_pull_force_peak_n']:.1f} N",
-                                 f"by contact ({report.get('grasp', 'none')})", key="drawer_pull_force_peak_n"))
+                                 "from the contacts", key="drawer_pull_force_peak_n"))
     if report.get("unintended_contacts") is not None:
         figures.append(KeyFigure("Other contacts with the furniture",
                                  f"{report['unintended_contacts']}, peak {report['unintended_force_peak_n']:.0f} N",
