@@ -13,5 +13,5 @@ __all__, __getattr__, __dir__ = lazy_exports(__name__, {
     "drawer_cabinet": ["DrawerCabinet", "DrawerPlacement"],
     "disturbances": ["Disturbances", "Push"],
     "mujoco_video": ["Video", "WorldVideo"],
-    "contacts": ["contact_forces", "geoms_of_bodies", "subtree"],
+    "contacts": ["geoms_of_bodies", "robot_contacts", "subtree"],
 })

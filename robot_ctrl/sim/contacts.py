@@ -29,21 +29,18 @@ def _has_ancestor(m: mujoco.MjModel, body: int, root: int) -> bool:
     return body == root
 
 
-def contact_forces(m: mujoco.MjModel, d: mujoco.MjData, on: np.ndarray, by: np.ndarray) -> np.ndarray:
-    """The world-frame forces [N] (k × 3) that geoms in the mask ``by`` exert on geoms in the mask
-    ``on``, one row per active contact between the two groups."""
-    out, wrench = [], np.zeros(6)
+def robot_contacts(m: mujoco.MjModel, d: mujoco.MjData, robot: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The active contacts between a geom in the mask ``robot`` and one outside it: the robot's geom
+    of each, the other geom, and the world-frame force [N] the robot exerts on the other (k × 3)."""
+    ours, theirs, forces, wrench = [], [], [], np.zeros(6)
     for i in range(d.ncon):
         c = d.contact[i]
-        if c.efc_address < 0:
-            continue
         g1, g2 = int(c.geom1), int(c.geom2)
-        if on[g2] and by[g1]:
-            sign = 1.0  # the contact force is geom1's on geom2
-        elif on[g1] and by[g2]:
-            sign = -1.0
-        else:
+        if c.efc_address < 0 or robot[g1] == robot[g2]:
             continue
         mujoco.mj_contactForce(m, d, i, wrench)
-        out.append(sign * (c.frame.reshape(3, 3).T @ wrench[:3]))
-    return np.array(out).reshape(-1, 3)
+        force = c.frame.reshape(3, 3).T @ wrench[:3]  # geom1's on geom2
+        ours.append(g1 if robot[g1] else g2)
+        theirs.append(g2 if robot[g1] else g1)
+        forces.append(force if robot[g1] else -force)
+    return np.array(ours, dtype=int), np.array(theirs, dtype=int), np.array(forces).reshape(-1, 3)

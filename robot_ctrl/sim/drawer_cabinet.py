@@ -30,7 +30,7 @@ import numpy as np
 from robot_ctrl import __version__
 from robot_ctrl.geometry import Side, other
 from robot_ctrl.geometry.drawer_geometry import DRAWER_READINGS, SLOTS, DrawerGeometry, cabinet_distance
-from robot_ctrl.sim.contacts import contact_forces, geoms_of_bodies, subtree
+from robot_ctrl.sim.contacts import geoms_of_bodies, robot_contacts, subtree
 
 if TYPE_CHECKING:
     from robot_ctrl.robot.model import RobotModel
@@ -215,14 +215,14 @@ class DrawerCabinet:
         """``DRAWER_READINGS`` now."""
         m = self.m
         opening = d.xmat[self.drawer].reshape(3, 3) @ m.jnt_axis[m.dof_jntid[self.slide_dof]]
-        on_drawer = contact_forces(m, d, self.drawer_geoms, self.robot_geoms)
-        grip = contact_forces(m, d, self.handle_geoms, self.hand_geoms)
-        held = contact_forces(m, d, self.object_geoms, self.reaching_geoms)
+        ours, theirs, forces = robot_contacts(m, d, self.robot_geoms)  # one pass over the contacts
+        on_drawer = forces[self.drawer_geoms[theirs]]
+        grip = forces[self.handle_geoms[theirs] & self.hand_geoms[ours]]
+        held = forces[self.object_geoms[theirs] & self.reaching_geoms[ours]]
         intended = self.handle_geoms | self.object_geoms
-        other_furniture = contact_forces(m, d, self.furniture_geoms & ~intended, self.robot_geoms)
-        stray_hand = contact_forces(m, d, self.handle_geoms, self.robot_geoms & ~self.hand_geoms)
-        stray_object = contact_forces(m, d, self.object_geoms, self.robot_geoms & ~self.reaching_geoms)
-        unintended = np.concatenate([other_furniture, stray_hand, stray_object])
+        unintended = forces[(self.furniture_geoms & ~intended)[theirs]
+                            | (self.handle_geoms[theirs] & ~self.hand_geoms[ours])
+                            | (self.object_geoms[theirs] & ~self.reaching_geoms[ours])]
         touching = len(grip) > 0
         values = {"drawer_opening_m": d.qpos[self.slide_qpos], "drawer_velocity_mps": d.qvel[self.slide_dof],
                   "drawer_pull_force_n": float(on_drawer.sum(axis=0) @ opening) if len(on_drawer) else 0.0,
