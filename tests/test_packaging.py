@@ -23,7 +23,7 @@ def test_the_wheel_carries_every_subpackage_the_configs_and_the_models(tmp_path)
     target = tmp_path / "site"
     subprocess.run([sys.executable, "-m", "pip", "install", "--no-deps", "-q", "--target", str(target), str(wheel)],
                    check=True, capture_output=True)
-    probe = ("import robot_ctrl; from robot_ctrl.robot.config import load_robot_config; "
+    probe = ("import robot_ctrl; from robot_ctrl.robot.config_file import load_robot_config; "
              "from robot_ctrl.synthesis.demonstrations import DemonstrationSet, default_dataset_path; "
              "print(robot_ctrl.__file__); print(load_robot_config('talos').name); "
              "print(len(DemonstrationSet.load(default_dataset_path('talos')).trials))")

@@ -11,7 +11,7 @@ import yaml
 from robot_ctrl.cli import main
 from robot_ctrl.modes import FilterMode
 from robot_ctrl.robot import ConfigError, load_robot, load_robot_config
-from robot_ctrl.robot.config import CONFIG_DIR, parse_robot_config
+from robot_ctrl.robot.config_file import CONFIG_DIR, parse_robot_config
 from robot_ctrl.robot.description import read_srdf
 from robot_ctrl.robot.joint_map import MujocoJointMap, mujoco_to_pin_q, pin_to_mujoco_qpos
 from robot_ctrl.robot.mjcf import robot_spec

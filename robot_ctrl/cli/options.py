@@ -10,7 +10,8 @@ import sys
 from pathlib import Path
 
 from robot_ctrl.modes import BaseState
-from robot_ctrl.robot.config import ConfigError, available_robots
+from robot_ctrl.robot.config import ConfigError
+from robot_ctrl.robot.config_file import available_robots
 
 #: Settings' names in error messages (from the library's checks), and the options that set them.
 COUPLING_OPTIONS = {"k": "--k", "alpha": "--alpha", "m_d": "--md", "m_z": "--mz", "m_psi": "--mpsi",

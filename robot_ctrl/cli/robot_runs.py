@@ -45,7 +45,7 @@ def _walk(args: argparse.Namespace) -> int:
 
     from robot_ctrl.control.commanders.path_follower import WalkGoal
     from robot_ctrl.control.controllers.walking_controller import WalkingOptions
-    from robot_ctrl.robot.config import load_robot_config
+    from robot_ctrl.robot.config_file import load_robot_config
     from robot_ctrl.scenarios.walk import WalkSettings, run_walk
     from robot_ctrl.wpg.params import WalkParams
 

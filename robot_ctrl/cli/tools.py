@@ -6,7 +6,8 @@ import argparse
 from pathlib import Path
 
 from robot_ctrl.cli.options import log_line
-from robot_ctrl.robot.config import ConfigError, available_robots
+from robot_ctrl.robot.config import ConfigError
+from robot_ctrl.robot.config_file import available_robots
 
 
 def _report(args: argparse.Namespace) -> int:

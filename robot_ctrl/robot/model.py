@@ -18,7 +18,8 @@ import numpy as np
 import pinocchio as pin
 
 from robot_ctrl.kernels import INDICES, INT, VECTOR, kernel
-from robot_ctrl.robot.config import AddedFrame, ConfigError, RobotConfig, load_robot_config
+from robot_ctrl.robot.config import AddedFrame, ConfigError, RobotConfig
+from robot_ctrl.robot.config_file import load_robot_config
 from robot_ctrl.robot.description import RobotFiles, read_srdf, robot_files
 from robot_ctrl.robot.mjcf import cached_scene_mjcf
 

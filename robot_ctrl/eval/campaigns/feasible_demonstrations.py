@@ -42,7 +42,7 @@ from robot_ctrl.eval.campaigns.campaign_runner import trial_dir
 from robot_ctrl.eval.campaigns.drawer_campaign import DrawerTrial, run_drawer_trials
 from robot_ctrl.geometry import GRAVITY
 from robot_ctrl.modes import SpeedClass
-from robot_ctrl.robot.config import load_robot_config
+from robot_ctrl.robot.config_file import load_robot_config
 from robot_ctrl.robot.model import RobotModel
 from robot_ctrl.synthesis.demonstrations import (
     PELVIS_CHANNELS,
