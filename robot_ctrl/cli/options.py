@@ -4,6 +4,7 @@ value parsers, the parents of the parsers, and the log line that does not tear a
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import re
 import sys
@@ -18,7 +19,8 @@ COUPLING_OPTIONS = {"k": "--k", "alpha": "--alpha", "m_d": "--md", "m_z": "--mz"
                     "k_sine": "--ksine", "lowpass": "--lowpass"}
 GROUP_OPTIONS = {**COUPLING_OPTIONS, "n": "--robots", "seed": "--seed"}
 DRAWER_OPTIONS = {"slot": "--slot", "distance": "--distance", "goal jump distance": "--goal-jump distance",
-                  "goal jump time": "--goal-jump time"}
+                  "goal jump time": "--goal-jump time", "cabinet": "--cabinet", "method": "--method"}
+ROOM_SIDE = (2.0, 20.0)  # [m] of --room's width and depth
 DISTURBANCE_OPTIONS = {"mass_scale": "--mass-scale", "friction_scale": "--friction-scale",
                        "latency": "--latency-ms: latency", "push time": "--push: push time",
                        "push angle": "--push: push angle", "push impulse": "--push: push impulse",
@@ -91,6 +93,17 @@ def time_distance(text: str, option: str):
     except ValueError:
         raise ConfigError(f"{option} {text!r} must be TIME:DISTANCE, two numbers [s]:[m], e.g. 3:2.4") from None
     return GoalJump(time, distance)
+
+
+def numbers(text: str, option: str, form: str, example: str) -> tuple[float, ...]:
+    """``text``'s comma-separated finite numbers, as many as ``form`` names (``X,Y,YAW_DEG``)."""
+    try:
+        values = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        values = ()
+    if len(values) != len(form.split(",")) or not all(math.isfinite(v) for v in values):
+        raise ConfigError(f"{option} {text!r} must be {form}, {len(form.split(','))} finite numbers, e.g. {example}")
+    return values
 
 
 def named(message: str, options: dict[str, str]) -> str:

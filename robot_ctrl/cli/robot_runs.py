@@ -3,10 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import math
+from dataclasses import replace
 from pathlib import Path
 
 from robot_ctrl.cli.options import (
     DRAWER_OPTIONS,
+    ROOM_SIDE,
     backend_args,
     backend_of,
     base_state_arg,
@@ -17,6 +20,7 @@ from robot_ctrl.cli.options import (
     log_arg,
     log_line,
     named,
+    numbers,
     parse_sources,
     sources_arg,
     step_timing,
@@ -81,11 +85,14 @@ def _drawer(args: argparse.Namespace) -> int:
     from robot_ctrl.synthesis.synthesizer import SynthesisError
 
     jumps = tuple(time_distance(j, "--goal-jump") for j in args.goal_jump)
+    cabinet, room = cabinet_and_room(args)
     robot = load_robot(args.robot)
-    task = DrawerTask(args.distance, args.slot, jumps, FilterMode(args.dynfilter or robot.config.drawer_dynfilter),
+    distance = (args.distance if cabinet is None else cabinet.x if cabinet.straight_ahead
+                else math.hypot(cabinet.x, cabinet.y))
+    task = DrawerTask(distance, args.slot, jumps, FilterMode(args.dynfilter or robot.config.drawer_dynfilter),
                       base_state=base_state_of(args), speed=SpeedClass(args.speed),
                       position_feedback=not args.no_position_feedback,
-                      method=DrawerMethod(args.method))
+                      method=DrawerMethod(args.method), cabinet=cabinet, room=room)
     parse_disturbances(args)
     sources = parse_sources(args.sources, "drawer: --sources")
     if len(sources) != 1:
@@ -96,7 +103,11 @@ def _drawer(args: argparse.Namespace) -> int:
         primitives = load_primitives(robot, args.dataset, sources[0], whole_body=naive)
     except ValueError as exc:
         raise ConfigError(f"drawer: --dataset: {exc}") from exc
+    approach = task.approach(primitives.comfort_distance, robot.config.drawer)
     placement = DrawerPlacement(task.distance, task.slot, tuple((j.time, j.distance) for j in jumps))
+    if approach is not None:  # in a room: the cabinet stands ahead of the hand-over pose
+        placement = replace(placement, distance=approach.handover_distance, frame=tuple(approach.handover),
+                            walls=approach.walls)
     robot, disturbances, hardware = simulation(args, robot, prop=placement)
     with hardware as hw, on_the_robot(args, robot, hw, task.control_dt) as (recorders, pacer):
         try:
@@ -106,6 +117,24 @@ def _drawer(args: argparse.Namespace) -> int:
             raise ConfigError(f"drawer: --distance {task.distance} with these primitives (--dataset, --sources): "
                               f"{exc}") from exc
     return finish(args, report, html=not args.no_html)
+
+
+def cabinet_and_room(args: argparse.Namespace):
+    """``--cabinet X,Y,YAW_DEG`` and ``--room W,D`` (with ``--free-standing``) as the task's
+    :class:`CabinetPose` and :class:`Room` (None, default room without ``--cabinet``)."""
+    from robot_ctrl.geometry.room import CabinetPose, Room
+
+    if args.cabinet is None:
+        if args.room is not None or args.free_standing:
+            raise ConfigError("drawer: --room and --free-standing need --cabinet (--distance has no room)")
+        return None, Room()
+    x, y, yaw = numbers(args.cabinet, "drawer: --cabinet", "X,Y,YAW_DEG", "3.0,1.5,200")
+    width, depth = numbers(args.room or "6,6", "drawer: --room", "W,D", "6,6")
+    lo, hi = ROOM_SIDE
+    for name, v in (("width", width), ("depth", depth)):
+        if not lo <= v <= hi:
+            raise ConfigError(f"drawer: --room {name} = {v:g} m is outside the allowed range [{lo:g}, {hi:g}] m")
+    return CabinetPose(x, y, math.radians(yaw)), Room(width, depth, against_wall=not args.free_standing)
 
 
 def check_drawer_tasks(tasks: dict, robot, options: dict[str, str] | None = None, dataset: Path | None = None,
@@ -127,7 +156,7 @@ def check_drawer_tasks(tasks: dict, robot, options: dict[str, str] | None = None
                 raise ValueError(f"--dataset: {exc}") from exc
         shortest = min(t.lengths[1] for t in demos.trials)
         for label, task in tasks.items():
-            task.check(demos.comfort_distance, shortest)
+            task.check(demos.comfort_distance, shortest, robot.config.drawer)
     except (FileNotFoundError, ValueError) as exc:
         raise ConfigError(f"{label}: {named(str(exc), options) if options else exc}") from exc
 
@@ -203,6 +232,16 @@ def _add_drawer(sub, sim) -> None:
                                    "every criterion was met (success). Exit status 1 if the robot fell.")
     p.add_argument("--distance", type=float, default=2.0, help="drawer front panel from the start pelvis [m]")
     p.add_argument("--slot", default="front_left", help="object slot: front_left, front_right, back_left, back_right")
+    p.add_argument("--cabinet", metavar="X,Y,YAW_DEG",
+                   help="the cabinet anywhere in a room instead of --distance ahead: the closed front panel's point "
+                        "ahead of the standing pelvis at (X, Y) [m] in the start frame (x forward, y left) and the "
+                        "direction its front faces [deg] (180: facing the robot; --distance D is --cabinet D,0,180 "
+                        "without the room); the robot walks round to its front, then the synthesis takes over")
+    p.add_argument("--room", metavar="W,D",
+                   help="with --cabinet: the room's width along the cabinet's front and depth along the way it "
+                        "faces [m] (default 6,6), its walls square to the cabinet, the cabinet's back against one")
+    p.add_argument("--free-standing", action="store_true",
+                   help="with --cabinet: the cabinet stands free, the room centred between it and the start")
     p.add_argument("--goal-jump", action="append", default=[], metavar="TIME:DISTANCE",
                    help="at TIME [s] the cabinet moves to DISTANCE [m]; the synthesis replans (repeatable)")
     p.add_argument("--dynfilter", choices=[m.value for m in FilterMode], default=None,

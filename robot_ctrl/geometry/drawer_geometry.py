@@ -16,6 +16,8 @@ from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 
+from robot_ctrl.geometry.room import Box
+
 #: What the drawer cabinet's prop reports each tick in simulation (``JointState.scene``, in this
 #: order), all from the physics' contacts and bodies: the drawer's opening [m] and velocity [m/s];
 #: the robot's contact force on the drawer along its opening [N]; the left hand's fingers touching the
@@ -72,6 +74,10 @@ class DrawerGeometry:
     slide_damping: float = 10.0  # [N·s/m] viscous friction: 3 N more at 0.3 m/s
     slide_friction: float = 15.0  # [N] dry friction of the runners: the force to start it moving
     cabinet_depth: float = 0.50
+    body_radius: float = 0.55  # [m] the walking robot's reach round its pelvis: arms, hands, swinging feet, turning
+    # In a room, the synthesis takes over this far (the walk-in, a normal and a short cycle) before
+    # the comfort distance.
+    handover_walk: float = 0.95
 
     def scaled(self, s: float) -> "DrawerGeometry":
         """The same cabinet ``s`` times the size: every length × s; the drawer's mass and its slide's
@@ -85,6 +91,13 @@ class DrawerGeometry:
             out[f.name] = ({key: x * k for key, x in v.items()} if isinstance(v, dict) else
                            tuple(x * k for x in v) if isinstance(v, tuple) else v * k)
         return replace(self, **out)
+
+    def footprint(self) -> Box:
+        """The closed cabinet's outline on the floor with its handle, in its frame (room.py's cabinet
+        frame: x from the panel into the cabinet, y left)."""
+        bar = np.array(self.handle_grip) + self.bar_from_grip
+        return Box(min(0.0, float(bar[0])) - self.handle_radius, self.cabinet_depth,
+                   self.drawer_y[0] - 0.025, self.drawer_y[1] + 0.025)
 
     def opening(self, slot: str) -> float:
         """How far the drawer is pulled for ``slot`` [m]: the clearance plus the margin."""

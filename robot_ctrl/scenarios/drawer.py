@@ -12,6 +12,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Callable, Sequence
 
+import numpy as np
+
+from robot_ctrl.control.commanders.approach_walk import SPEED, TURN_RATE, ApproachWalk, compose
 from robot_ctrl.control.commanders.drawer_targets import DrawerTargets
 from robot_ctrl.control.commanders.naive_commander import NaiveCommander
 from robot_ctrl.control.commanders.walk_reach_commander import WalkReachCommander
@@ -25,6 +28,8 @@ from robot_ctrl.eval.recording.report_file import write_report
 from robot_ctrl.eval.recording.walk_log import WalkLog
 from robot_ctrl.eval.recording.walk_recorder import WalkRecorder
 from robot_ctrl.geometry import GRAVITY, base_pose_xy_yaw
+from robot_ctrl.geometry.drawer_geometry import DrawerGeometry
+from robot_ctrl.geometry.room import Approach
 from robot_ctrl.hw.safety import SafetyLayer
 from robot_ctrl.modes import DrawerMethod
 from robot_ctrl.robot.model import RobotModel
@@ -56,20 +61,27 @@ def run_drawer(robot: RobotModel, hw: SafetyLayer, primitives: WalkReachPrimitiv
     stepped, run = start_run(robot, hw, task.base_state, build, pacer, recorders, log)
     controller = stepped.walking if naive else stepped
     start = base_pose_xy_yaw(run.state.base_pos, run.state.base_quat_xyzw)
-    targets = DrawerTargets(lambda: controller.start_pose, float(run.state.base_pos[2]), task.distance, task.slot,
-                            task.jumps, geometry)
-    if naive:
+    plan = task.approach(primitives.comfort_distance, geometry)
+    if plan is None:
+        frame, distance = (lambda: controller.start_pose), task.distance
+    else:  # in a room: the task's frame is the hand-over pose, the cabinet ahead of it
+        frame, distance = (lambda: compose(controller.start_pose, plan.handover)), plan.handover_distance
+    targets = DrawerTargets(frame, float(run.state.base_pos[2]), distance, task.slot, task.jumps, geometry)
+    approach = ApproachWalk(controller, plan, lambda: controller.start_pose, log) if plan and plan.walks else None
+    if naive:  # DrawerTask.check: straight ahead
         commander = NaiveCommander(stepped, primitives, targets, log, speed=task.speed.scale)
     else:
         commander = WalkReachCommander(controller, primitives, targets, log, speed=task.speed.scale,
-                                       position_feedback=task.position_feedback)
+                                       position_feedback=task.position_feedback, approach=approach)
     foot = robot.config.foot
     walk = WalkRecorder(controller, WalkLog(robot.mass * GRAVITY, start, (foot.length, foot.width)), start,
                         lambda line: None)
     drawer = DrawerRecorder(commander, robot)
     capture = PushCapture(controller, disturbances.pushes, float(start[2]))
     done = HeldFor(lambda: commander.done, STAND_AFTER, "the task ended")
-    limit = 8.0 * max([task.distance] + [j.distance for j in task.jumps]) + 15.0
+    limit = 8.0 * max([distance] + [j.distance for j in task.jumps]) + 15.0
+    if approach is not None:  # turning on the spot at TURN_RATE and walking at a third of SPEED, at worst
+        limit += 3.0 * plan.length / SPEED + 2 * np.pi * (len(plan.waypoints) - 1) / TURN_RATE
     bar = ProgressBar(limit / 2, progress)
     result = run.loop(dt, bar, recorders=[walk, drawer, capture], commanders=[commander],
                       stops=[done, TimeLimit(limit, "the task did not end")])
@@ -84,6 +96,8 @@ def run_drawer(robot: RobotModel, hw: SafetyLayer, primitives: WalkReachPrimitiv
         dynfilter_fallbacks=controller.filter_fallbacks, push_recoveries=controller.push_recoveries,
         push_capture=capture.report()) | run.report(result, disturbances)
     report["success"] = report["success"] and done.held(result.states[0].t) >= STAND_AFTER
+    if task.in_room:
+        report |= room_layout(task, plan, geometry)
     log(f"success: {str(report['success']).lower()}  fell: {str(report['fell']).lower()}  steps "
         f"{report['planned_step_lengths_m']} planned, {report['realized_step_lengths_m']} realized [m]  pelvis to "
         f"drawer {report['final_pelvis_to_drawer_m']} m (comfort {report['comfort_distance_m']})  drawer open "
@@ -94,3 +108,17 @@ def run_drawer(robot: RobotModel, hw: SafetyLayer, primitives: WalkReachPrimitiv
         walk.log.save(out_dir)
         log(f"wrote {drawer.save(out_dir)}")
     return report
+
+
+def room_layout(task: DrawerTask, plan: Approach, geometry: DrawerGeometry) -> dict:
+    """Where the cabinet and the room's walls stood, start frame: the cabinet's pose, its outline on
+    the floor and the room's inside corners [m]."""
+    c = task.cabinet
+
+    def corners(box) -> list:
+        return np.round(c.to_start(box.corners()), 3).tolist()
+
+    return {"cabinet": {"x_m": c.x, "y_m": c.y, "front_yaw_deg": round(float(np.degrees(c.front_yaw)), 2),
+                        "footprint_m": corners(geometry.footprint())},
+            "room": {"width_m": task.room.width, "depth_m": task.room.depth, "against_wall": task.room.against_wall,
+                     "corners_m": corners(plan.interior)}}

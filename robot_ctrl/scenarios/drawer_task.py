@@ -7,7 +7,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from robot_ctrl.geometry.drawer_geometry import SLOTS
+import numpy as np
+
+from robot_ctrl.geometry.drawer_geometry import SLOTS, DrawerGeometry
+from robot_ctrl.geometry.room import Approach, CabinetPose, Room, plan_approach
 from robot_ctrl.modes import BaseState, DrawerMethod, FilterMode, SpeedClass
 from robot_ctrl.synthesis.synthesizer import GoalJump
 
@@ -31,12 +34,43 @@ class DrawerTask:
     speed: SpeedClass = SpeedClass.NOMINAL  # how fast the synthesized sequence is played
     position_feedback: bool = True  # the commander's loops that bring the pelvis where the synthesis planned it
     method: DrawerMethod = DrawerMethod.OURS
+    cabinet: CabinetPose | None = None  # in a room: where the cabinet stands (start frame); None: ``distance`` ahead
+    room: Room = Room()
 
-    def check(self, comfort: float, shortest: float) -> None:
-        """Raise ValueError naming the setting and its allowed range."""
+    @property
+    def in_room(self) -> bool:
+        return self.cabinet is not None
+
+    def approach(self, comfort: float, geometry: DrawerGeometry) -> Approach | None:
+        """The walk to the pose where the synthesized sequence takes over, in a room (None: the
+        sequence starts where the robot stands). Raises ValueError naming ``cabinet`` when the
+        cabinet's front cannot be reached."""
+        if self.cabinet is None:
+            return None
+        c = self.cabinet
+        try:
+            return plan_approach(c, geometry.footprint(), self.room, geometry.body_radius,
+                                 comfort + geometry.handover_walk)
+        except ValueError as exc:
+            raise ValueError(f"cabinet = {c.x:g},{c.y:g},{np.degrees(c.front_yaw):g}: {exc}") from exc
+
+    def check(self, comfort: float, shortest: float, geometry: DrawerGeometry | None = None) -> None:
+        """Raise ValueError naming the setting and its allowed range (a cabinet straight ahead in a
+        room: ``distance`` is its distance, checked as without a room)."""
         nearest = round(comfort + shortest + WALK_IN, 2)
         if self.slot not in SLOTS:
             raise ValueError(f"slot = {self.slot!r} is not one of {', '.join(SLOTS)}")
+        if self.in_room and self.approach(comfort, geometry or DrawerGeometry()).walks:
+            walk = (geometry or DrawerGeometry()).handover_walk
+            if comfort + walk < nearest:
+                raise ValueError(f"drawer.handover_walk = {walk} m is shorter than the {nearest - comfort:.2f} m "
+                                 "the synthesis needs before the comfort distance")
+            if self.method is DrawerMethod.NAIVE:
+                raise ValueError("method = naive walks straight in: its cabinet stands straight ahead, facing it")
+            if self.jumps:
+                raise ValueError("goal jump: a cabinet the robot walks round to does not move yet (only one "
+                                 "straight ahead, facing it)")
+            return
         for name, d in [("distance", self.distance)] + [("goal jump distance", j.distance) for j in self.jumps]:
             if not nearest <= d <= MAX_DISTANCE:
                 raise ValueError(f"{name} = {d} m is outside the allowed range [{nearest}, {MAX_DISTANCE}] m")

@@ -30,6 +30,7 @@ import numpy as np
 from robot_ctrl import __version__
 from robot_ctrl.geometry import Side, other
 from robot_ctrl.geometry.drawer_geometry import DRAWER_READINGS, SLOTS, DrawerGeometry, cabinet_distance
+from robot_ctrl.geometry.room import WALL_THICKNESS, Wall
 from robot_ctrl.sim.contacts import geoms_of_bodies, robot_contacts, subtree
 
 if TYPE_CHECKING:
@@ -37,12 +38,15 @@ if TYPE_CHECKING:
 
 GRASP_SIDE: Side = "left"
 IMPRATIO = 10.0  # frictional to normal constraint impedance (MuJoCo's option/impratio)
+WALLS = 4
+WALL_HEIGHT = 1.0  # [m] low enough for the cameras to film over
 
 
 @dataclass(frozen=True)
 class DrawerPlacement:
     """Where the cabinet stands: its closed drawer's front panel ``distance`` [m] ahead of the
-    robot's start pelvis along the start heading; ``jumps``: (time [s], new distance [m]) at which
+    robot's start pelvis along the start heading (in a room: ahead of ``frame``, the pose where the
+    synthesis takes over, in the start frame); ``jumps``: (time [s], new distance [m]) at which
     it is moved (thesis Fig. 3.39); ``slot``: the object the right hand reaches for; ``geometry``:
     the cabinet, by default the robot's (its config's ``drawer:``)."""
 
@@ -50,6 +54,8 @@ class DrawerPlacement:
     slot: str = "front_left"
     jumps: tuple[tuple[float, float], ...] = ()
     geometry: DrawerGeometry | None = None
+    frame: tuple[float, float, float] = (0.0, 0.0, 0.0)  # start-frame pose (x, y, yaw) the distance is along
+    walls: tuple[Wall, ...] = ()  # the room's, start frame (none: an open floor)
 
     def distance_at(self, t: float) -> float:
         return cabinet_distance(self.distance, self.jumps, t)
@@ -109,6 +115,10 @@ def add_cabinet(spec: mujoco.MjSpec, geometry: DrawerGeometry) -> None:
         drawer.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_CAPSULE, size=[g.handle_radius, 0, 0], rgba=metal,
                         fromto=np.concatenate([a, b]))
     drawer.add_site(name="handle_grip", pos=grip, size=[0.008, 0, 0], rgba=[0.1, 0.8, 0.1, 1])
+    for i in range(WALLS):  # sized and placed at run time, hidden without a room
+        wall = spec.worldbody.add_body(name=f"wall_{i}", mocap=True)
+        wall.add_geom(name=f"wall_{i}", type=mujoco.mjtGeom.mjGEOM_BOX, size=[1.0, WALL_THICKNESS / 2, WALL_HEIGHT / 2],
+                      pos=[0.0, 0.0, WALL_HEIGHT / 2], rgba=[0.85, 0.85, 0.8, 1])
     for slot in SLOTS:
         drawer.add_site(name=f"slot_{slot}", pos=g.object_in_drawer(slot), size=[0.008, 0, 0], rgba=[0.9, 0.9, 0.1, 1])
         dowel = spec.worldbody.add_body(name=f"object_{slot}")
@@ -165,7 +175,9 @@ class DrawerCabinet:
         self.handle_geoms = np.array([m.geom(i).name.startswith("handle_") for i in range(m.ngeom)])
         self.object_geoms = geoms_of_bodies(m, [self.object])
         self.drawer_geoms = geoms_of_bodies(m, [self.drawer])
-        self.furniture_geoms = geoms_of_bodies(m, [m.body("cabinet").id, self.drawer, *self.objects])
+        self.walls = [m.body(f"wall_{i}") for i in range(WALLS)]
+        self.furniture_geoms = geoms_of_bodies(m, [m.body("cabinet").id, self.drawer, *self.objects,
+                                                   *(w.id for w in self.walls)])
         self.pelvis_height = 0.0
         self.distance = placement.distance
         self._grip_in_hand: np.ndarray | None = None  # the handle's grip point in the hand frame at first touch
@@ -179,9 +191,11 @@ class DrawerCabinet:
             geom.size[2], geom.pos[2] = (top + pelvis_height) / 2, (top - pelvis_height) / 2
         self.pelvis_height = pelvis_height
         self.distance = self.placement.distance_at(t)
-        x, y, yaw = self.start
-        d.mocap_pos[self.mocap] = [x + self.distance * np.cos(yaw), y + self.distance * np.sin(yaw), pelvis_height]
+        fx, fy, fyaw = self.placement.frame
+        x, y, yaw = self._in_world(fx + self.distance * np.cos(fyaw), fy + self.distance * np.sin(fyaw), fyaw)
+        d.mocap_pos[self.mocap] = [x, y, pelvis_height]
         d.mocap_quat[self.mocap] = [np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)]
+        self._place_walls(d)
         mujoco.mj_kinematics(self.m, d)
         g = self.geometry
         for slot, body in zip(SLOTS, self.objects):  # upright on the drawer's bottom, under the slot's site
@@ -192,6 +206,31 @@ class DrawerCabinet:
             d.qvel[dof:dof + 6] = 0.0
         mujoco.mj_kinematics(self.m, d)
         self.object_rest_z = float(d.xpos[self.object][2])
+
+    def _in_world(self, x: float, y: float, yaw: float) -> tuple[float, float, float]:
+        """A start-frame pose in the world."""
+        x0, y0, yaw0 = self.start
+        c, s = np.cos(yaw0), np.sin(yaw0)
+        return x0 + c * x - s * y, y0 + s * x + c * y, yaw0 + yaw
+
+    def _place_walls(self, d: mujoco.MjData) -> None:
+        """The room's walls where the placement says; without a room they neither show nor collide."""
+        for i, body in enumerate(self.walls):
+            geom = int(self.m.body_geomadr[body.id])
+            if i >= len(self.placement.walls):
+                self.m.geom_contype[geom] = self.m.geom_conaffinity[geom] = 0
+                self.m.geom_rgba[geom, 3] = 0.0
+                continue
+            w = self.placement.walls[i]
+            self.m.geom_contype[geom] = self.m.geom_conaffinity[geom] = 1
+            self.m.geom_rgba[geom, 3] = 1.0
+            x, y, yaw = self._in_world(w.x, w.y, w.yaw)
+            d.mocap_pos[body.mocapid[0]] = [x, y, 0.0]
+            d.mocap_quat[body.mocapid[0]] = [np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)]
+            size = np.array([w.length / 2, WALL_THICKNESS / 2, WALL_HEIGHT / 2])
+            self.m.geom_size[geom] = size  # the broad phase's bounds follow the size
+            self.m.geom_rbound[geom] = float(np.linalg.norm(size))
+            self.m.geom_aabb[geom] = [0.0, 0.0, 0.0, *size]
 
     def before_period(self, d: mujoco.MjData) -> None:
         """Move the cabinet (and the dowels with it) when a jump is due."""

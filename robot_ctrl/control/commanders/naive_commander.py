@@ -36,6 +36,8 @@ HANDOVER_BLEND = 0.1  # [s] from the walking controller's last command into the 
 
 
 class NaiveCommander:
+    approach = None  # it walks straight in: a cabinet in a room is refused (DrawerTask.check)
+
     def __init__(self, playback: JointPlayback, primitives: WalkReachPrimitives, targets: DrawerTargets,
                  log: Callable[[str], None] = print, *, speed: float = 1.0):
         controller = playback.walking

@@ -23,7 +23,11 @@ through its command API:
   short cycle's second half the leader oscillator slows while the measured pelvis lags the
   synthesized one, so that standing begins when the pelvis has come to rest.
 
-Frames: ``start`` is the base's world pose (x, y, yaw) at the start; distances are along its heading.
+In a room, an :class:`~robot_ctrl.control.commanders.approach_walk.ApproachWalk` first walks the robot
+round to the hand-over pose in front of the cabinet; all of the above begins once it stands there.
+
+Frames: ``start`` is the task's frame: the base's world pose (x, y, yaw) at the start, or the
+hand-over pose in a room; distances are along its heading.
 """
 
 from __future__ import annotations
@@ -32,6 +36,7 @@ from typing import Callable
 
 import numpy as np
 
+from robot_ctrl.control.commanders.approach_walk import ApproachWalk
 from robot_ctrl.control.commanders.drawer_hands import DrawerHands
 from robot_ctrl.control.commanders.drawer_targets import DrawerTargets
 from robot_ctrl.control.commanders.synthesized_body import SynthesizedBody
@@ -89,14 +94,17 @@ def step_synthesis(synth: Synthesizer, dt: float, goal: WalkReachGoal, t: float,
 
 class WalkReachCommander:
     def __init__(self, controller: WalkingController, primitives: WalkReachPrimitives, targets: DrawerTargets,
-                 log: Callable[[str], None] = print, *, speed: float = 1.0, position_feedback: bool = True):
+                 log: Callable[[str], None] = print, *, speed: float = 1.0, position_feedback: bool = True,
+                 approach: ApproachWalk | None = None):
         """``speed``: the synthesis's time runs this many times the robot's (``modes.SpeedClass``):
         its durations are divided by it, its pelvis velocities multiplied, its lengths kept.
         ``position_feedback`` False turns off the four loops that bring the measured pelvis to where
         the synthesis planned it (the lag feedback into the WPG's velocity, the stop at the final
         footsteps, the synthesis clock waiting for the pelvis, the standing lean): the WPG then gets
         the synthesized velocity alone and a zero velocity once the robot should stand, and what the
-        task achieves is the synthesis's own (thesis Fig. 3.41 without the controller's help)."""
+        task achieves is the synthesis's own (thesis Fig. 3.41 without the controller's help).
+        ``approach``: in a room, the walk to the pose where the sequence takes over (``targets``'
+        start frame); the sequence begins once the robot stands there."""
         self.controller, self.primitives, self.targets, self.log = controller, primitives, targets, log
         self.speed = speed
         self.position_feedback = position_feedback
@@ -107,8 +115,7 @@ class WalkReachCommander:
         self._posture_now = self.base_posture.copy()
         self._preview: SynthesisPreview | None = None
         self._preview_t = 0.0
-        start = targets.start
-        self.feet_offset = {s: rotation(start[2]).T @ (f.xy - start[:2]) for s, f in controller.footsteps().items()}
+        self.approach = approach
         self.synth: Synthesizer | None = None
         self.synth_start_advance = 0.0  # measured pelvis advance when the synthesis started [m]
         self.output = None  # the synthesizer's last output of a running sequence
@@ -119,18 +126,27 @@ class WalkReachCommander:
         self._stood_at: float | None = None  # [s] when the plan stood on its stop footsteps
         self._waiting_for_pelvis = False  # standing begins once the pelvis has arrived
         self.t = 0.0
-        self._com_from_pelvis = controller.reference_com()[:2] - controller.reference_configuration()[:2]  # world axes
-        self._com_offset = float(self._com_from_pelvis @ targets.forward[:2])
-        # Walk off at the first action's mean speed until the synthesis starts; meanwhile the upper
-        # body blends to the synthesis's first posture.
-        dry = Synthesizer(primitives, self._goal(0.0))
+        self.handed_over: float | None = None  # [s] when the synthesized sequence's walk began
+        controller.set_upper_body(self.posture)
+        if approach is None:
+            self._walk_off(0.0)
+        controller.on_sample(self._on_sample)
+
+    def _walk_off(self, t: float) -> None:
+        """Walk off from standing at the task's start at the first action's mean speed until the
+        synthesis starts; meanwhile the upper body blends to the synthesis's first posture."""
+        c, start = self.controller, self.targets.start
+        self.handed_over = t
+        self._touchdowns_before = len(c.touchdowns)
+        self.feet_offset = {s: rotation(start[2]).T @ (f.xy - start[:2]) for s, f in c.footsteps().items()}
+        self._com_from_pelvis = c.reference_com()[:2] - c.reference_configuration()[:2]  # world axes
+        self._com_offset = float(self._com_from_pelvis @ self.targets.forward[:2])
+        dry = Synthesizer(self.primitives, self._goal(t))
         first = dry.plan[0]
         self._walk_in_posture = self.base_posture.copy()
-        self._walk_in_posture[self.body.upper] = dry.step(controller.dt).upper_body_q
-        controller.set_upper_body(self.posture)
-        controller.set_time_scale(gait_time_scale(controller, first.duration, speed))
-        controller.set_velocity(speed * first.length / first.duration, 0.0, 0.0)
-        controller.on_sample(self._on_sample)
+        self._walk_in_posture[self.body.upper] = dry.step(c.dt).upper_body_q
+        c.set_time_scale(gait_time_scale(c, first.duration, self.speed))
+        c.set_velocity(self.speed * first.length / first.duration, 0.0, 0.0)
 
     def advance(self) -> float:
         """Measured pelvis advance along the start heading [m]."""
@@ -183,7 +199,9 @@ class WalkReachCommander:
             if abs(t - jump.time) < self.controller.dt / 2:
                 self.log(f"t = {t:6.2f} s  the drawer moved to {jump.distance:.2f} m")
         if self.synth is None:
-            s, _ = minimum_jerk(t, WALK_IN_BLEND)
+            if self.handed_over is None:  # on the approach: the start posture
+                return
+            s, _ = minimum_jerk(t - self.handed_over, WALK_IN_BLEND)
             self._posture_now = self.base_posture + s * (self._walk_in_posture - self.base_posture)
             return
         rate = 0.0 if self.synth.finished else self._synthesis_rate()
@@ -255,8 +273,14 @@ class WalkReachCommander:
     # Per WPG sample -------------------------------------------------------------------------------
     def _on_sample(self, sample: PlanSample) -> None:
         c = self.controller
+        if self.handed_over is None:
+            self.approach.steer(sample)
+            if self.approach.done:
+                self.log(f"t = {sample.t:6.2f} s  hand-over: the synthesized walk-and-reach begins")
+                self._walk_off(sample.t)
+            return
         if self.synth is None:
-            if len(c.touchdowns) < WALK_IN_STEPS:
+            if len(c.touchdowns) - self._touchdowns_before < WALK_IN_STEPS:
                 return
             self._start_synthesis(sample)
         if self.synth.finished or self.synth.plan[self.synth.action_index].action is Action.STAND:

@@ -11,6 +11,10 @@ in the heading frame. The report (:meth:`DrawerRecorder.report`):
   until the run's end: the hands' pull and reach may outlast the synthesized sequence (the
   synthesizer's own sum is ``planned_step_lengths_m``'s counterpart, not this);
 - ``final_pelvis_to_drawer_m``: measured pelvis to the drawer's closed front panel, at the end;
+  ``final_pelvis_lateral_m`` and ``final_pelvis_yaw_error_deg``: its offset across the cabinet's axis
+  and its heading against the cabinet's (the task's frame: the start pose, or in a room the
+  hand-over pose); in a room, ``approach``: the path planned and walked, when the sequence took
+  over and the pelvis's error then against the hand-over pose;
 - ``grasp``: ``"contact"`` once the left hand's fingers touched the handle (``"none"`` if they never
   did), ``grasp_time_s`` when; ``hand_to_handle_m``: left gripper base to the handle's grip point
   then (or its least value); ``hand_to_object_m``: right gripper base to the object's reach point
@@ -20,7 +24,7 @@ in the heading frame. The report (:meth:`DrawerRecorder.report`):
   opening), ``grip_force_peak_n`` (the fingers' on the handle), ``handle_slip_max_m`` (how far the
   handle moved in the hand while held), ``object_lift_m`` and ``object_held`` (the object's height
   gain and its contact with the right hand's fingers, at the end), ``unintended_contacts`` (how many
-  times the robot began touching the cabinet, its drawer or an object elsewhere than the left
+  times the robot began touching the cabinet, its drawer, a wall or an object elsewhere than the left
   hand's fingers on the handle and the right hand's on the object), ``unintended_contact_s`` (for how
   long) and ``unintended_force_peak_n`` (the largest such force);
 - ``synthesis_step_length_errors_m``: the synthesizer's own pelvis advance over each finished
@@ -40,7 +44,7 @@ from typing import Callable
 
 import numpy as np
 
-from robot_ctrl.geometry import SIDES, base_pose_xy_yaw
+from robot_ctrl.geometry import SIDES, base_pose_xy_yaw, relative_pose
 from robot_ctrl.geometry.drawer_geometry import DRAWER_READINGS
 from robot_ctrl.synthesis.step_planning import Action
 
@@ -48,6 +52,7 @@ STEP_TOLERANCE = 0.010  # [m] per action (thesis Fig. 3.41: below 10 mm)
 COMFORT_TOLERANCE = 0.03  # [m]
 OBJECT_TOLERANCE = 0.02  # [m]
 OPENED_SHARE = 0.95  # of the required opening: the drawer counts as opened
+PATH_EVERY = 0.25  # [s] between the realized path's points in the report
 
 
 class DrawerRecorder:
@@ -124,7 +129,38 @@ class DrawerRecorder:
                                                    for h in (c.synth.history if c.synth is not None else [])
                                                    if h.end_progress is not None]),
             hand_to_object_synth_only_m=round(self.synth_hand_error, 4),
-            replans=c.synth.replans if c.synth is not None else 0)
+            replans=c.synth.replans if c.synth is not None else 0) | self._in_task_frame(a)
+
+    def _in_task_frame(self, a: dict[str, np.ndarray]) -> dict:
+        """The measured pelvis against the task's frame (the cabinet's axis, facing it) at the end:
+        its offset across the axis [m] and its heading error [deg]; in a room, the approach: the
+        path planned and walked (start frame, every ``PATH_EVERY`` s) and the pelvis at the hand-over
+        against the hand-over pose."""
+        c = self.commander
+        if not len(a["t"]):
+            return {}
+        frame = c.targets.start
+        final = relative_pose(a["base"][-1], frame)
+        out = dict(final_pelvis_lateral_m=_round(float(final[1]), 4),
+                   final_pelvis_yaw_error_deg=_round(float(np.degrees(final[2])), 2))
+        if c.approach is None:
+            return out
+        plan = c.approach.approach
+        k = min(int(np.searchsorted(a["t"], c.handed_over if c.handed_over is not None else np.inf)), len(a["t"]) - 1)
+        at = relative_pose(a["base"][k], frame)
+        dt = float(np.median(np.diff(a["t"]))) if len(a["t"]) > 1 else PATH_EVERY
+        every = max(1, int(round(PATH_EVERY / dt)))
+        walked = np.array([relative_pose(b, a["base"][0])[:2] for b in a["base"][::every]])
+        out["approach"] = dict(
+            planned_path_m=np.round(plan.waypoints, 3).tolist(), path_length_m=round(plan.length, 3),
+            handover_pose=[round(float(plan.handover[0]), 3), round(float(plan.handover[1]), 3),
+                           round(float(np.degrees(plan.handover[2])), 2)],
+            handover_distance_m=round(plan.handover_distance, 4),
+            handover_time_s=None if c.handed_over is None else round(c.handed_over, 3),
+            handover_error=dict(along_m=_round(float(at[0]), 4), lateral_m=_round(float(at[1]), 4),
+                                yaw_deg=_round(float(np.degrees(at[2])), 2)),
+            realized_path_m=np.round(walked, 3).tolist())
+        return out
 
     def save(self, out_dir: Path) -> Path:
         """Append the drawer's series to the walk's ``timeseries.npz`` (action boundaries too)."""

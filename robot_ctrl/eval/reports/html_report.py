@@ -188,7 +188,9 @@ def _top_view(s, report) -> str:
         return np.stack([c * d[:, 0] + sn * d[:, 1], -sn * d[:, 0] + c * d[:, 1]], axis=1)
 
     com = local(s["com_ref"])
-    span = np.ptp(com, axis=0) + 0.4
+    room, cabinet, approach = report.get("room"), report.get("cabinet"), report.get("approach")
+    outline = np.array(room["corners_m"]) if room else com
+    span = np.ptp(np.vstack([com, outline]), axis=0) + 0.4
     fig, ax = plt.subplots(figsize=(10, float(np.clip(10 * span[1] / span[0] + 1.6, 3.4, 8.0))))
     length, width = s["foot_size"]
     for step in report.get("footsteps", []):
@@ -196,6 +198,13 @@ def _top_view(s, report) -> str:
             x, y, yaw = step[key]
             corner = np.array([x, y]) + _rot(yaw) @ [-length / 2, -width / 2]
             ax.add_patch(patches.Rectangle(corner, length, width, angle=np.degrees(yaw), **style))
+    if room:  # the drawer in a room: the walls' inside, the cabinet, the approach path
+        ax.add_patch(patches.Polygon(outline, fill=False, ec="0.3", lw=2.5, label="walls"))
+        ax.add_patch(patches.Polygon(np.array(cabinet["footprint_m"]), fc="burlywood", ec="saddlebrown",
+                                     label="cabinet"))
+    if approach:
+        ax.plot(*np.array(approach["planned_path_m"]).T, "k:", marker="o", ms=3, lw=1.2, label="path planned")
+        ax.plot(*np.array(approach["realized_path_m"]).T, "C2", lw=1.0, label="pelvis walked")
     ax.plot(*com.T, "C0", label="CoM planned")
     ax.plot(*local(s["com"]).T, "C3", lw=0.8, label="CoM measured")
     ax.plot([], [], "C0", lw=1.2, label="footprints planned")
@@ -204,7 +213,10 @@ def _top_view(s, report) -> str:
     ax.autoscale_view()
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
-    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.4), ncol=4)
+    if room:  # a tall room: the legend beside it
+        ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.02, 1.0))
+    else:
+        ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.4), ncol=4)
     return figure_png(fig)
 
 
