@@ -84,6 +84,12 @@ def relative_pose(pose: np.ndarray, origin: np.ndarray) -> np.ndarray:
     return np.array([xy[0], xy[1], wrap_angle(pose[2] - origin[2])])
 
 
+def absolute_pose(local: np.ndarray, origin: np.ndarray) -> np.ndarray:
+    """Planar pose ``local`` (x, y, yaw) of the frame ``origin`` (x, y, yaw) in the world, the inverse of
+    :func:`relative_pose`: ``(p₀ + R(ψ₀) p, ψ₀ + ψ)``."""
+    return np.array([*(np.asarray(origin[:2]) + rotation(origin[2]) @ np.asarray(local[:2])), origin[2] + local[2]])
+
+
 def base_pose_xy_yaw(base_pos: np.ndarray, base_quat_xyzw: np.ndarray) -> np.ndarray:
     """Planar pose (x, y, yaw) of a base from its world position and quaternion (x, y, z, w)."""
     x, y, z, w = np.asarray(base_quat_xyzw, dtype=float).tolist()  # floats: numpy's scalars cost more per operation

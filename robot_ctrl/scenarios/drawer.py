@@ -14,22 +14,20 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from robot_ctrl.control.commanders.approach_walk import SPEED, TURN_RATE, ApproachWalk, compose
+from robot_ctrl.control.commanders.approach_walk import SPEED, TURN_RATE, ApproachWalk
 from robot_ctrl.control.commanders.drawer_targets import DrawerTargets
 from robot_ctrl.control.commanders.naive_commander import NaiveCommander
 from robot_ctrl.control.commanders.walk_reach_commander import WalkReachCommander
 from robot_ctrl.control.controllers.joint_playback import JointPlayback
 from robot_ctrl.control.controllers.walking_controller import WalkingController, WalkingOptions
 from robot_ctrl.control.loop.pacer import Pacer
-from robot_ctrl.eval.recording.drawer_recorder import DrawerRecorder
+from robot_ctrl.eval.recording.drawer_recorder import DrawerRecorder, room_layout
 from robot_ctrl.eval.recording.push_capture import PushCapture
 from robot_ctrl.eval.recording.recorders import HeldFor, ProgressBar, TimeLimit
 from robot_ctrl.eval.recording.report_file import write_report
 from robot_ctrl.eval.recording.walk_log import WalkLog
 from robot_ctrl.eval.recording.walk_recorder import WalkRecorder
-from robot_ctrl.geometry import GRAVITY, base_pose_xy_yaw
-from robot_ctrl.geometry.drawer_geometry import DrawerGeometry
-from robot_ctrl.geometry.room import Approach
+from robot_ctrl.geometry import GRAVITY, absolute_pose, base_pose_xy_yaw
 from robot_ctrl.hw.safety import SafetyLayer
 from robot_ctrl.modes import DrawerMethod
 from robot_ctrl.robot.model import RobotModel
@@ -65,7 +63,7 @@ def run_drawer(robot: RobotModel, hw: SafetyLayer, primitives: WalkReachPrimitiv
     if plan is None:
         frame, distance = (lambda: controller.start_pose), task.distance
     else:  # in a room: the task's frame is the hand-over pose, the cabinet ahead of it
-        frame, distance = (lambda: compose(controller.start_pose, plan.handover)), plan.handover_distance
+        frame, distance = (lambda: absolute_pose(plan.handover, controller.start_pose)), plan.handover_distance
     targets = DrawerTargets(frame, float(run.state.base_pos[2]), distance, task.slot, task.jumps, geometry)
     approach = ApproachWalk(controller, plan, lambda: controller.start_pose, log) if plan and plan.walks else None
     if naive:  # DrawerTask.check: straight ahead
@@ -97,7 +95,7 @@ def run_drawer(robot: RobotModel, hw: SafetyLayer, primitives: WalkReachPrimitiv
         push_capture=capture.report()) | run.report(result, disturbances)
     report["success"] = report["success"] and done.held(result.states[0].t) >= STAND_AFTER
     if task.in_room:
-        report |= room_layout(task, plan, geometry)
+        report |= room_layout(task.cabinet, task.room, plan, geometry.footprint())
     log(f"success: {str(report['success']).lower()}  fell: {str(report['fell']).lower()}  steps "
         f"{report['planned_step_lengths_m']} planned, {report['realized_step_lengths_m']} realized [m]  pelvis to "
         f"drawer {report['final_pelvis_to_drawer_m']} m (comfort {report['comfort_distance_m']})  drawer open "
@@ -109,16 +107,3 @@ def run_drawer(robot: RobotModel, hw: SafetyLayer, primitives: WalkReachPrimitiv
         log(f"wrote {drawer.save(out_dir)}")
     return report
 
-
-def room_layout(task: DrawerTask, plan: Approach, geometry: DrawerGeometry) -> dict:
-    """Where the cabinet and the room's walls stood, start frame: the cabinet's pose, its outline on
-    the floor and the room's inside corners [m]."""
-    c = task.cabinet
-
-    def corners(box) -> list:
-        return np.round(c.to_start(box.corners()), 3).tolist()
-
-    return {"cabinet": {"x_m": c.x, "y_m": c.y, "front_yaw_deg": round(float(np.degrees(c.front_yaw)), 2),
-                        "footprint_m": corners(geometry.footprint())},
-            "room": {"width_m": task.room.width, "depth_m": task.room.depth, "against_wall": task.room.against_wall,
-                     "corners_m": corners(plan.interior)}}

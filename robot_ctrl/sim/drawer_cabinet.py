@@ -28,7 +28,7 @@ import mujoco
 import numpy as np
 
 from robot_ctrl import __version__
-from robot_ctrl.geometry import Side, other
+from robot_ctrl.geometry import Side, absolute_pose, other
 from robot_ctrl.geometry.drawer_geometry import DRAWER_READINGS, SLOTS, DrawerGeometry, cabinet_distance
 from robot_ctrl.geometry.room import WALL_THICKNESS, Wall
 from robot_ctrl.sim.contacts import geoms_of_bodies, robot_contacts, subtree
@@ -192,7 +192,8 @@ class DrawerCabinet:
         self.pelvis_height = pelvis_height
         self.distance = self.placement.distance_at(t)
         fx, fy, fyaw = self.placement.frame
-        x, y, yaw = self._in_world(fx + self.distance * np.cos(fyaw), fy + self.distance * np.sin(fyaw), fyaw)
+        x, y, yaw = absolute_pose([fx + self.distance * np.cos(fyaw), fy + self.distance * np.sin(fyaw), fyaw],
+                                  self.start)
         d.mocap_pos[self.mocap] = [x, y, pelvis_height]
         d.mocap_quat[self.mocap] = [np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)]
         self._place_walls(d)
@@ -207,12 +208,6 @@ class DrawerCabinet:
         mujoco.mj_kinematics(self.m, d)
         self.object_rest_z = float(d.xpos[self.object][2])
 
-    def _in_world(self, x: float, y: float, yaw: float) -> tuple[float, float, float]:
-        """A start-frame pose in the world."""
-        x0, y0, yaw0 = self.start
-        c, s = np.cos(yaw0), np.sin(yaw0)
-        return x0 + c * x - s * y, y0 + s * x + c * y, yaw0 + yaw
-
     def _place_walls(self, d: mujoco.MjData) -> None:
         """The room's walls where the placement says; without a room they neither show nor collide."""
         for i, body in enumerate(self.walls):
@@ -224,7 +219,7 @@ class DrawerCabinet:
             w = self.placement.walls[i]
             self.m.geom_contype[geom] = self.m.geom_conaffinity[geom] = 1
             self.m.geom_rgba[geom, 3] = 1.0
-            x, y, yaw = self._in_world(w.x, w.y, w.yaw)
+            x, y, yaw = absolute_pose([w.x, w.y, w.yaw], self.start)
             d.mocap_pos[body.mocapid[0]] = [x, y, 0.0]
             d.mocap_quat[body.mocapid[0]] = [np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)]
             size = np.array([w.length / 2, WALL_THICKNESS / 2, WALL_HEIGHT / 2])

@@ -15,7 +15,7 @@ from typing import Callable
 import numpy as np
 
 from robot_ctrl.control.controllers.walking_controller import PlanSample, WalkingController
-from robot_ctrl.geometry import SIDES, rotation, wrap_angle
+from robot_ctrl.geometry import SIDES, absolute_pose, rotation, wrap_angle
 from robot_ctrl.geometry.room import Approach
 from robot_ctrl.wpg.footstep import Footstep
 
@@ -27,11 +27,6 @@ TURN_FIRST = 0.4  # [rad] facing farther than this from the next corner: turn on
 WALK_WITHIN = 0.12  # [rad] ... until facing it within this
 PASSED = 0.12  # [m] a corner this near is passed: on to the next
 STOP_DISTANCE = 0.3  # [m] from the hand-over pose: stop there with both feet
-
-
-def compose(origin: np.ndarray, local: np.ndarray) -> np.ndarray:
-    """Planar pose ``local`` (x, y, yaw) of the frame ``origin`` (x, y, yaw) in the world."""
-    return np.array([*(origin[:2] + rotation(origin[2]) @ local[:2]), origin[2] + local[2]])
 
 
 class ApproachWalk:
@@ -56,7 +51,7 @@ class ApproachWalk:
     @property
     def handover(self) -> np.ndarray:
         """The hand-over pose in the world (x, y, yaw)."""
-        return compose(self.start_pose(), self.approach.handover)
+        return absolute_pose(self.approach.handover, self.start_pose())
 
     def steer(self, sample: PlanSample) -> None:
         if self.stopping:

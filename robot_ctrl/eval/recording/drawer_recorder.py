@@ -46,6 +46,7 @@ import numpy as np
 
 from robot_ctrl.geometry import SIDES, base_pose_xy_yaw, relative_pose
 from robot_ctrl.geometry.drawer_geometry import DRAWER_READINGS
+from robot_ctrl.geometry.room import Approach, Box, CabinetPose, Room
 from robot_ctrl.synthesis.step_planning import Action
 
 STEP_TOLERANCE = 0.010  # [m] per action (thesis Fig. 3.41: below 10 mm)
@@ -232,6 +233,19 @@ def drawer_outcome(a: dict[str, np.ndarray], boundaries: list[float], planned: l
         grasp_time_s=round(float(a["t"][np.argmax(grasped)]), 3) if grasped.any() else None,
         hand_to_handle_m=round(float(at_grasp), 4), hand_to_object_m=round(hand_to_object, 4),
         peak_ankle_pitch_torque_ratio={side: round(float(r), 4) for side, r in zip(SIDES, ankle)})
+
+
+def room_layout(cabinet: CabinetPose, room: Room, plan: Approach, footprint: Box) -> dict:
+    """Where the cabinet and the room's walls stood, start frame: the cabinet's pose, its outline on
+    the floor (``footprint``, its frame) and the room's inside corners [m]."""
+
+    def corners(box: Box) -> list:
+        return np.round(cabinet.to_start(box.corners()), 3).tolist()
+
+    yaw = round(float(np.degrees(cabinet.front_yaw)), 2)
+    return {"cabinet": {"x_m": cabinet.x, "y_m": cabinet.y, "front_yaw_deg": yaw, "footprint_m": corners(footprint)},
+            "room": {"width_m": room.width, "depth_m": room.depth, "against_wall": room.against_wall,
+                     "corners_m": corners(plan.interior)}}
 
 
 def _round(values, digits: int = 5):
