@@ -241,7 +241,8 @@ def _add_drawer(sub, sim) -> None:
                    help="with --cabinet: the room's width along the cabinet's front and depth along the way it "
                         "faces [m] (default 6,6), its walls square to the cabinet, the cabinet's back against one")
     p.add_argument("--free-standing", action="store_true",
-                   help="with --cabinet: the cabinet stands free, the room centred between it and the start")
+                   help="with --cabinet: the cabinet stands free, the room centred on the start, the cabinet and "
+                        "the walk in to it")
     p.add_argument("--goal-jump", action="append", default=[], metavar="TIME:DISTANCE",
                    help="at TIME [s] the cabinet moves to DISTANCE [m]; the synthesis replans (repeatable)")
     p.add_argument("--dynfilter", choices=[m.value for m in FilterMode], default=None,

@@ -10,7 +10,7 @@ Frames (planar, metres, radians):
 
 The room is a rectangle square to the cabinet (furniture stands parallel to walls): ``depth`` along
 the cabinet's x, ``width`` along its y; with ``against_wall`` the cabinet's back touches the wall
-behind it, otherwise the room is centred between the start and the cabinet.
+behind it, otherwise the room is centred on what it holds (the start, the cabinet, the walk in to it).
 
 The path is the shortest one in the visibility graph of the cabinet's footprint grown by the robot's
 radius (its corners, the start, the hand-over pose and a point ``LEAD_IN`` before it on the
@@ -85,10 +85,8 @@ class Box:
     def grown(self, r: float) -> "Box":
         return Box(self.x0 - r, self.x1 + r, self.y0 - r, self.y1 + r)
 
-    def contains(self, p: np.ndarray, strict: bool = False) -> bool:
+    def contains(self, p: np.ndarray) -> bool:
         x, y = p
-        if strict:
-            return self.x0 < x < self.x1 and self.y0 < y < self.y1
         return self.x0 <= x <= self.x1 and self.y0 <= y <= self.y1
 
     def corners(self) -> np.ndarray:
@@ -171,7 +169,7 @@ def room_walls(interior: Box, cabinet: CabinetPose) -> tuple[Wall, ...]:
 
 
 def plan_approach(cabinet: CabinetPose, footprint: Box, room: Room, radius: float, handover_distance: float,
-                  start: np.ndarray = np.zeros(2)) -> Approach:
+                  start=(0.0, 0.0)) -> Approach:
     """The path from ``start`` (start frame) to the pelvis ``handover_distance`` [m] in front of the
     cabinet's panel on its axis, facing it, clear by ``radius`` [m] of the cabinet's ``footprint``
     (cabinet frame: the cabinet with its open drawer and handle) and of the walls; a cabinet straight

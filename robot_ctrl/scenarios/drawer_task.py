@@ -60,8 +60,9 @@ class DrawerTask:
         nearest = round(comfort + shortest + WALK_IN, 2)
         if self.slot not in SLOTS:
             raise ValueError(f"slot = {self.slot!r} is not one of {', '.join(SLOTS)}")
-        if self.in_room and self.approach(comfort, geometry or DrawerGeometry()).walks:
-            walk = (geometry or DrawerGeometry()).handover_walk
+        geometry = geometry or DrawerGeometry()
+        if self.in_room and self.approach(comfort, geometry).walks:
+            walk = geometry.handover_walk
             if comfort + walk < nearest:
                 raise ValueError(f"drawer.handover_walk = {walk} m is shorter than the {nearest - comfort:.2f} m "
                                  "the synthesis needs before the comfort distance")
