@@ -95,14 +95,17 @@ def test_trials_from_a_file_and_drawn_at_random(tmp_path):
     assert len({t.id for t in drawn}) == 30 and len({t.distance for t in drawn}) > 25
     summary = summarize([{"method": "ours", "sources": "4+3", "speed": "fast", "fell": False, "success": True, "error": None,
                           "step_length_errors_m": [0.004, -0.006], "hand_error_m": 0.001,
-                          "peak_ankle_pitch_torque_ratio": 0.4, "peak_grf_ratio": 0.8},
+                          "peak_ankle_pitch_torque_ratio": 0.4, "peak_grf_ratio": 0.8, "pelvis_error_m": -0.012,
+                          "pelvis_lateral_m": 0.004, "pelvis_yaw_error_deg": -1.5},
                          {"method": "ours", "sources": "4+3", "speed": "fast", "fell": True, "success": False, "error": None,
                           "step_length_errors_m": [0.002], "hand_error_m": 0.003,
-                          "peak_ankle_pitch_torque_ratio": 0.9, "peak_grf_ratio": 1.2}])
+                          "peak_ankle_pitch_torque_ratio": 0.9, "peak_grf_ratio": 1.2, "pelvis_error_m": 0.008,
+                          "pelvis_lateral_m": -0.011, "pelvis_yaw_error_deg": 0.5}])
     assert summary == [{"method": "ours", "sources": "4+3", "speed": "fast", "trials": 2, "falls": 1, "successes": 1, "errors": 0,
                         "step_length_error_median_m": 0.004, "step_length_error_max_m": 0.006,
                         "hand_error_median_m": 0.002, "hand_error_max_m": 0.003,
-                        "peak_ankle_pitch_torque_ratio": 0.9, "peak_grf_ratio": 1.2}]
+                        "peak_ankle_pitch_torque_ratio": 0.9, "peak_grf_ratio": 1.2, "pelvis_error_max_m": 0.012,
+                        "pelvis_lateral_max_m": 0.011, "pelvis_yaw_error_max_deg": 1.5}]
 
 
 @pytest.mark.parametrize("args,message", [

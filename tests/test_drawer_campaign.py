@@ -101,7 +101,8 @@ def test_a_trials_row_holds_its_settings_and_its_reports_figures():
     trial = DrawerTrial(3, "ours", 2.5, "front_left", SpeedClass.MIDDLE, (2.0, 2.8), FilterMode.FULL, seed=5,
                         dataset="/data/feasible.npz", sources="4+3")
     settings = {"id": trial.id, "method": "ours", "distance_m": 2.5, "slot": "front_left", "speed": "middle",
-                "jump": [2.0, 2.8], "seed": 5, "dataset": "/data/feasible.npz", "sources": "4+3", "dynfilter": "full"}
+                "jump": [2.0, 2.8], "seed": 5, "dataset": "/data/feasible.npz", "sources": "4+3", "dynfilter": "full",
+                "cabinet": None, "room": None, "free_standing": False}
     report = {"fell": False, "fall_time_s": None, "success": True, "step_length_errors_m": [0.004, -0.006],
               "step_length_error_max_m": 0.006, "hand_to_object_m": 0.0009, "drawer_opening_m": 0.18,
               "peak_ankle_pitch_torque_ratio": {"left": 0.41, "right": 0.52},
@@ -112,7 +113,9 @@ def test_a_trials_row_holds_its_settings_and_its_reports_figures():
         "wall_s": 41.24, "error": None, "fell": False, "fall_time_s": None, "success": True,
         "step_length_errors_m": [0.004, -0.006], "step_length_error_max_m": 0.006, "hand_error_m": 0.0009,
         "drawer_opening_m": 0.18, "peak_ankle_pitch_torque_ratio": 0.52, "peak_grf_ratio": 0.823,
-        "zmp_lateral_error_rms_m": 0.012, "safety_interventions": {"torque_clamped": 2}, "rtf": 3.1}
+        "zmp_lateral_error_rms_m": 0.012, "safety_interventions": {"torque_clamped": 2}, "rtf": 3.1, "cause": None,
+        "pelvis_error_m": None, "pelvis_lateral_m": None, "pelvis_yaw_error_deg": None, "handover_error": None,
+        "unintended_contacts": None}
     # A report that measured nothing of a kind, and no report at all (the run died: its error says why).
     bare = {"fell": True, "fall_time_s": 4.2, "success": False, "grf_limit_n": 1500.0,
             "safety": {"interventions": {}}, "rtf": 2.0}
@@ -122,7 +125,8 @@ def test_a_trials_row_holds_its_settings_and_its_reports_figures():
                                         "peak_ankle_pitch_torque_ratio", "peak_grf_ratio", "zmp_lateral_error_rms_m"))
     died = drawer_row(dataclasses.replace(trial, jump=None), None,
                       TrialOutcome(trial.id, error="timeout", wall_s=600.0))
-    assert died == settings | {"jump": None, "wall_s": 600.0, "error": "timeout", "fell": None, "success": False}
+    assert died == settings | {"jump": None, "wall_s": 600.0, "error": "timeout", "fell": None, "success": False,
+                               "cause": "timeout"}
 
 
 def test_methods_and_speed_classes_from_the_command_line():

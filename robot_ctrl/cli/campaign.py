@@ -25,10 +25,10 @@ from robot_ctrl.robot.config import ConfigError
 def _campaign(args: argparse.Namespace) -> int:
     from robot_ctrl.eval.campaigns import drawer_campaign as campaign
     from robot_ctrl.robot.model import load_robot
-    from robot_ctrl.scenarios.drawer_task import DrawerTask
-    from robot_ctrl.synthesis.synthesizer import GoalJump
 
     check_ranges("campaign", args)
+    if args.poses == "random" and args.n is None:
+        raise ConfigError("campaign: --poses random draws --n trials (a --trials file gives each pose itself)")
     robot = load_robot(args.robot)
     try:
         methods = campaign.parse_methods(args.method)
@@ -36,6 +36,8 @@ def _campaign(args: argparse.Namespace) -> int:
         dynfilter = FilterMode.parse(args.dynfilter or robot.config.drawer_dynfilter)
         if args.trials is not None:
             trials = campaign.read_trials(args.trials, methods, dynfilter)
+        elif args.poses == "random":
+            trials = campaign.draw_poses(args.n, args.seed, speeds, methods, dynfilter, _reachable(robot, args.dataset))
         else:
             trials = campaign.draw_trials(args.n, args.seed, speeds, methods, dynfilter)
     except (OSError, ValueError) as exc:
@@ -46,9 +48,7 @@ def _campaign(args: argparse.Namespace) -> int:
                       dataset=campaign.method_dataset(t.method, dataset, robot.name))
               for k, (t, (first, extra)) in enumerate((t, s) for t in trials for s in sources)]
     for demos, naive in sorted({(t.dataset, t.method == "naive") for t in trials}, key=str):  # each set, checked once
-        tasks = {f"campaign: trial {t.id}": DrawerTask(t.distance, t.slot, (GoalJump(*t.jump),) if t.jump else (),
-                                                       t.dynfilter, speed=t.speed)
-                 for t in trials if (t.dataset, t.method == "naive") == (demos, naive)}
+        tasks = {f"campaign: trial {t.id}": _task(t) for t in trials if (t.dataset, t.method == "naive") == (demos, naive)}
         check_drawer_tasks(tasks, robot, dataset=None if demos is None else Path(demos), whole_body=naive)
     check_out_folder(args)
     backend = backend_of(args, "campaign")
@@ -66,6 +66,40 @@ def _campaign(args: argparse.Namespace) -> int:
     return 1 if bad else 0
 
 
+def _task(trial):
+    """The drawer task a campaign's trial runs (checked as the drawer command checks it)."""
+    import math
+
+    from robot_ctrl.geometry.room import CabinetPose, Room
+    from robot_ctrl.scenarios.drawer_task import DrawerTask
+    from robot_ctrl.synthesis.synthesizer import GoalJump
+
+    jumps = (GoalJump(*trial.jump),) if trial.jump else ()
+    task = DrawerTask(trial.distance, trial.slot, jumps, trial.dynfilter, speed=trial.speed)
+    if trial.cabinet is None:
+        return task
+    x, y, yaw = trial.cabinet
+    return replace(task, cabinet=CabinetPose(x, y, math.radians(yaw)),
+                   room=Room(*trial.room, against_wall=not trial.free_standing))
+
+
+def _reachable(robot, dataset: Path | None):
+    """Whether a drawn trial's cabinet can be walked to in its room (``DrawerTask.approach``, at the
+    comfort distance of the demonstrations in ``dataset``, None: the robot's)."""
+    from robot_ctrl.synthesis.learned import load_demonstrations
+
+    comfort = load_demonstrations(robot, dataset).comfort_distance
+
+    def reachable(trial) -> bool:
+        try:
+            _task(trial).approach(comfort, robot.config.drawer)
+        except ValueError:
+            return False
+        return True
+
+    return reachable
+
+
 def _mm(value: float | None) -> str:
     return "–" if value is None else f"{value * 1e3:.1f} mm"
 
@@ -74,16 +108,21 @@ def add_parsers(sub, robot) -> None:
     p = sub.add_parser("campaign", parents=[robot],
                        help="many drawer trials in parallel, locally or on a Ray cluster (resumable)",
                        description="Runs drawer trials (from --trials FILE, or --n drawn at random with --seed at new "
-                                   "distances), each in its own processes, --jobs at a time, and writes "
+                                   "distances or, with --poses random, anywhere in random rooms), each in its own processes, --jobs at a time, and writes "
                                    "DIR/campaign.json (a row per trial, a summary per method and speed class), "
                                    "DIR/campaign.html and each trial's report under DIR/trials/. Rerunning the same "
                                    "command finishes the trials a kill left undone. Exit status 1 if a trial fell or "
                                    "ended in an error, 130 when interrupted.")
     which = p.add_mutually_exclusive_group(required=True)
     which.add_argument("--trials", type=Path, metavar="FILE",
-                       help="one trial a line: distance slot speed [jump_time jump_distance]; # comments")
+                       help="one trial a line: 'distance slot speed [jump_time jump_distance]', or in a room "
+                            "'X,Y,YAW_DEG [slot] [speed] [room=W,D] [free-standing]'; # comments")
     which.add_argument("--n", type=int, help="trials drawn at random per method, 1..10000")
     p.add_argument("--seed", type=int, default=0, help="seed of the random draw (with --n)")
+    p.add_argument("--poses", choices=("straight", "random"), default="straight",
+                   help="with --n: the cabinet straight ahead at a random distance (straight), or anywhere in a "
+                        "random room (random: sides 5-8 m, its back against a wall or free-standing, its front "
+                        "1.2-6 m from the start in any direction, facing any way, drawn again until reachable)")
     p.add_argument("--speeds", default="slow,middle,fast",
                    help="speed classes of the drawn trials, in turn (slow 0.8, middle 0.92, nominal 1.0, fast 1.2)")
     p.add_argument("--method", default="ours",

@@ -61,13 +61,14 @@ class RobotRun:
 
     def report(self, result: LoopResult, disturbances: Disturbances) -> dict:
         """The fields every run's report ends with: how the base was seen, the safety layer, the
-        disturbances, the real-time factor and rate, and on real servos the pacer's timing."""
+        disturbances, why the loop stopped, the real-time factor and rate, and on real servos the
+        pacer's timing."""
         safety = self.hw.report()
         # Per joint, what the controller asked for before the safety layer; `peak_torque_ratio` is
         # what the servos delivered after it.
         safety["demanded_peak_torque_ratio"] = dict(zip(self.robot.joint_names, safety["demanded_peak_torque_ratio"]))
         report = dict(**self.view.report(), safety=safety, disturbances=disturbances.to_dict(),
-                      rtf=round(result.rtf, 3), control_rate_hz=round(1.0 / result.dt, 3))
+                      stop_reason=result.stop_reason, rtf=round(result.rtf, 3), control_rate_hz=round(1.0 / result.dt, 3))
         if self.pacer is not None:
             report["timing"] = self.pacer.report()
         return report

@@ -235,6 +235,23 @@ def drawer_outcome(a: dict[str, np.ndarray], boundaries: list[float], planned: l
         peak_ankle_pitch_torque_ratio={side: round(float(r), 4) for side, r in zip(SIDES, ankle)})
 
 
+def drawer_criteria(report: dict) -> dict[str, bool]:
+    """Each drawer criterion of ``success`` (besides not falling) by name, met or not, from a report."""
+    step, hand = report.get("step_length_error_max_m"), report.get("hand_to_object_m")
+    pelvis, comfort = report.get("final_pelvis_to_drawer_m"), report.get("comfort_distance_m")
+    opening, required = report.get("drawer_opening_m"), report.get("drawer_opening_required_m")
+    return {"drawer opened": opening is not None and required is not None and opening >= OPENED_SHARE * required,
+            "object reached": hand is not None and hand <= OBJECT_TOLERANCE,
+            "steps within 10 mm": step is not None and step <= STEP_TOLERANCE,
+            "pelvis at the comfort distance": pelvis is not None and comfort is not None
+            and abs(pelvis - comfort) <= COMFORT_TOLERANCE}
+
+
+def failed_criteria(report: dict) -> list[str]:
+    """The names of the drawer criteria a report's run missed (:func:`drawer_criteria`)."""
+    return [name for name, met in drawer_criteria(report).items() if not met]
+
+
 def room_layout(cabinet: CabinetPose, room: Room, plan: Approach, footprint: Box) -> dict:
     """Where the cabinet and the room's walls stood, start frame: the cabinet's pose, its outline on
     the floor (``footprint``, its frame) and the room's inside corners [m]."""

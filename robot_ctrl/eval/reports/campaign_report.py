@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from robot_ctrl.eval.recording.drawer_recorder import COMFORT_TOLERANCE
 from robot_ctrl.eval.reports.figures import figure_png
 from robot_ctrl.eval.reports.page import KeyFigure, Summary, Verdict, first_screen, page
 
@@ -27,8 +28,12 @@ SUMMARY_COLUMNS = (("method", "method"), ("sources", "sources"), ("speed", "spee
                    ("hand_error_median_m", "hand error median [mm]"),
                    ("hand_error_max_m", "hand error max [mm]"),
                    ("peak_ankle_pitch_torque_ratio", "peak ankle pitch torque / limit"),
-                   ("peak_grf_ratio", "peak vertical GRF / limit"))
+                   ("peak_grf_ratio", "peak vertical GRF / limit"),
+                   ("pelvis_error_max_m", "pelvis off the comfort distance, max [mm]"),
+                   ("pelvis_lateral_max_m", "pelvis off the cabinet's axis, max [mm]"),
+                   ("pelvis_yaw_error_max_deg", "pelvis heading off the cabinet's, max [°]"))
 PEAK_TRIALS = 3  # trials shown against time
+HEADING_TOLERANCE_DEG = 5.0  # a pelvis facing the cabinet, in a room
 ERROR_BINS_MM = np.logspace(-1, 4, 41)  # 0.1 mm to 10 m
 SPEEDS = ("slow", "middle", "fast")
 #: Table 3.1: falls of 10 new trials per speed class (slow, middle, fast), naive ML per source count.
@@ -40,6 +45,8 @@ def _cell(key: str, value) -> str:
         return "–"
     if key.endswith("_m"):
         return f"{value * 1e3:.1f}"
+    if key.endswith("_deg"):
+        return f"{value:.1f}"
     return f"{value:.3f}" if isinstance(value, float) else str(value)
 
 
@@ -101,6 +108,30 @@ def _lateral_zmp(rows: list[dict]):
         ax.plot(np.full(len(values), k) + np.linspace(-0.2, 0.2, len(values)), values, "o", ms=3, alpha=0.7)
     ax.set_xticks(range(len(labels)), labels, rotation=20, fontsize=8)
     ax.set_ylabel("lateral ZMP error, RMS [mm]")
+    return fig
+
+
+def _poses(rows: list[dict]):
+    """Top view of the trials in rooms: each cabinet's front panel point and the way it faces, the
+    robot's start at the origin."""
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.5, 6.5))
+    ax.annotate("", (0.4, 0.0), (0.0, 0.0), arrowprops=dict(arrowstyle="->", color="k", lw=2))
+    ax.plot(0.0, 0.0, "ko", label="start")
+    for r in rows:
+        if not r.get("cabinet"):
+            continue
+        x, y, yaw = r["cabinet"]
+        color = "tab:green" if r["success"] and not r["fell"] else "tab:red"
+        ax.annotate("", (x + 0.35 * np.cos(np.radians(yaw)), y + 0.35 * np.sin(np.radians(yaw))), (x, y),
+                    arrowprops=dict(arrowstyle="->", color=color, lw=1.5))
+        ax.plot(x, y, "s", color=color, ms=5)
+        ax.text(x, y, f" {r['id'][:3]}", fontsize=7, color=color)
+    ax.set_aspect("equal")
+    ax.grid(alpha=0.3)
+    ax.set_xlabel("x, start frame [m]")
+    ax.set_ylabel("y, start frame [m]")
     return fig
 
 
@@ -176,6 +207,15 @@ def _summary(campaign: dict) -> Summary:
     if steps:
         figures.append(KeyFigure("Largest step-length error", f"{max(steps) * 1000:.1f} mm",
                                  "≤ 10 mm (thesis Fig. 3.41)", max(steps) <= 0.010))
+    if any(r.get("cabinet") for r in rows):  # in rooms: where the walk round ended
+        pelvis = [abs(r["pelvis_error_m"]) for r in rows if r.get("pelvis_error_m") is not None]
+        yaw = [abs(r["pelvis_yaw_error_deg"]) for r in rows if r.get("pelvis_yaw_error_deg") is not None]
+        if pelvis:
+            figures.append(KeyFigure("Largest pelvis error from the comfort distance", f"{max(pelvis) * 1000:.1f} mm",
+                                     f"≤ {COMFORT_TOLERANCE * 1000:.0f} mm", max(pelvis) <= COMFORT_TOLERANCE))
+        if yaw:
+            figures.append(KeyFigure("Largest pelvis heading error against the cabinet's", f"{max(yaw):.1f}°",
+                                     f"≤ {HEADING_TOLERANCE_DEG:.0f}°", max(yaw) <= HEADING_TOLERANCE_DEG))
     methods = sorted({r["method"] for r in rows})
     ok = falls == 0 and errors == 0 and successes == len(rows)
     text = (f"{successes} of {len(rows)} trials met every criterion, {falls} fell, {errors} ended in an error "
@@ -196,8 +236,8 @@ def render_campaign(campaign: dict, out_dir: Path, transition_figure=None) -> Pa
                    + "</tr>" for s in campaign["summary"])
     thesis = "".join(f"<li>{html.escape(k.replace('_', ' '))}: {html.escape(v)}</li>" for k, v in THESIS.items())
     failed = [r for r in rows if r["fell"] or not r["success"] or r["error"]]
-    failures = "".join(f"<li>{html.escape(r['id'])}: fell {r['fell']}, success {r['success']}"
-                       f"{', error: ' + html.escape(r['error']) if r['error'] else ''}</li>" for r in failed)
+    failures = "".join(f"<li>{html.escape(r['id'])}: {html.escape(r.get('cause') or '')}"
+                       f"{' (error: ' + html.escape(r['error']) + ')' if r['error'] else ''}</li>" for r in failed)
     failures = failures or "<li>none</li>"
     figures = [("Peak ankle pitch torque and vertical GRF of every trial over their limits (thesis Fig. 3.47)",
                 figure_png(_peaks_per_method(rows))),
@@ -206,6 +246,10 @@ def render_campaign(campaign: dict, out_dir: Path, transition_figure=None) -> Pa
                 "the naive method has no plan after its walk-in)", figure_png(_lateral_zmp(rows))),
                (f"Ankle pitch torque and vertical GRF of the trials with the largest peaks (at most {PEAK_TRIALS}), "
                 "limits dashed (thesis Fig. 3.47)", figure_png(_peaks_over_time(rows, out_dir)))]
+    if any(r.get("cabinet") for r in rows):
+        figures.insert(0, ("Where each trial's cabinet stood, its front facing the arrow's way, in the start frame "
+                           "(the robot at the origin facing +x): green met every criterion, red did not",
+                           figure_png(_poses(rows))))
     images = "".join(f'<h2>{html.escape(t)}</h2><img alt="{html.escape(t)}" src="data:image/png;base64,{png}">'
                      for t, png in figures)
     if transition_figure is not None:

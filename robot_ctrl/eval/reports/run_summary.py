@@ -11,7 +11,14 @@ contact samples.
 
 from __future__ import annotations
 
-from robot_ctrl.eval.recording.drawer_recorder import COMFORT_TOLERANCE, OBJECT_TOLERANCE, OPENED_SHARE, STEP_TOLERANCE
+from robot_ctrl.eval.recording.drawer_recorder import (
+    COMFORT_TOLERANCE,
+    OBJECT_TOLERANCE,
+    OPENED_SHARE,
+    STEP_TOLERANCE,
+    drawer_criteria,
+    failed_criteria,
+)
 from robot_ctrl.eval.reports.page import KeyFigure, Summary, Verdict
 
 GOAL_TOLERANCE = 0.05  # [m] a walk's final position error that still counts as at its goal
@@ -106,41 +113,38 @@ def _drawer(report: dict) -> Summary:
     extras = [f"{report['speed']} speed" if report.get("speed", "nominal") != "nominal" else "",
               f"{report['method']} method" if report.get("method", "ours") != "ours" else "",
               "jumping goal" if report.get("goal_jumps") else ""]
-    title = ", ".join([f"Drawer task — {_robot(report)}", f"{_metres(report['distance_m'])} m", f"{slot} slot",
+    cabinet = report.get("cabinet")
+    where = (f"{_metres(report['distance_m'])} m" if cabinet is None else
+             f"cabinet at ({cabinet['x_m']:g}, {cabinet['y_m']:g}) m facing {cabinet['front_yaw_deg']:g}° in a room")
+    title = ", ".join([f"Drawer task — {_robot(report)}", where, f"{slot} slot",
                        *[e for e in extras if e]])
     step = report.get("step_length_error_max_m")
     pelvis, comfort = report.get("final_pelvis_to_drawer_m"), report.get("comfort_distance_m")
     opening, required = report.get("drawer_opening_m"), report.get("drawer_opening_required_m")
     hand = report.get("hand_to_object_m")
-    opened = None if opening is None or required is None else opening >= OPENED_SHARE * required
-    criteria = [
-        ("drawer opened", bool(opened),
-         KeyFigure("Drawer opening", "–" if opening is None else f"{opening * 100:.1f} cm",
-                   "" if required is None
-                   else f"≥ {OPENED_SHARE:.0%} of {required * 100:.0f} cm (the hand's clearance)",
-                   opened, "drawer_opening_m")),
-        ("object reached", hand is not None and hand <= OBJECT_TOLERANCE,
-         KeyFigure("Right hand to the object", "–" if hand is None else quantity(hand, "m"),
-                   f"≤ {OBJECT_TOLERANCE * 1000:.0f} mm", None if hand is None else hand <= OBJECT_TOLERANCE,
-                   "hand_to_object_m")),
-        ("steps within 10 mm", step is not None and step <= STEP_TOLERANCE,
-         KeyFigure("Largest step-length error", "–" if step is None else quantity(step, "m"),
-                   f"≤ {STEP_TOLERANCE * 1000:.0f} mm (thesis Fig. 3.41)",
-                   None if step is None else step <= STEP_TOLERANCE, "step_length_error_max_m")),
-        ("pelvis at the comfort distance", pelvis is not None and comfort is not None
-         and abs(pelvis - comfort) <= COMFORT_TOLERANCE,
-         KeyFigure("Pelvis to the drawer at the end", "–" if pelvis is None else f"{pelvis:.3f} m",
-                   "" if comfort is None else f"{comfort:.3f} ± {COMFORT_TOLERANCE * 1000:.0f} mm (comfort)",
-                   None if pelvis is None or comfort is None else abs(pelvis - comfort) <= COMFORT_TOLERANCE,
-                   "final_pelvis_to_drawer_m")),
+    met = drawer_criteria(report)
+    opened = None if opening is None or required is None else met["drawer opened"]
+    figures = [
+        KeyFigure("Drawer opening", "–" if opening is None else f"{opening * 100:.1f} cm",
+                  "" if required is None else f"≥ {OPENED_SHARE:.0%} of {required * 100:.0f} cm (the hand's clearance)",
+                  opened, "drawer_opening_m"),
+        KeyFigure("Right hand to the object", "–" if hand is None else quantity(hand, "m"),
+                  f"≤ {OBJECT_TOLERANCE * 1000:.0f} mm", None if hand is None else met["object reached"],
+                  "hand_to_object_m"),
+        KeyFigure("Largest step-length error", "–" if step is None else quantity(step, "m"),
+                  f"≤ {STEP_TOLERANCE * 1000:.0f} mm (thesis Fig. 3.41)",
+                  None if step is None else met["steps within 10 mm"], "step_length_error_max_m"),
+        KeyFigure("Pelvis to the drawer at the end", "–" if pelvis is None else f"{pelvis:.3f} m",
+                  "" if comfort is None else f"{comfort:.3f} ± {COMFORT_TOLERANCE * 1000:.0f} mm (comfort)",
+                  None if pelvis is None or comfort is None else met["pelvis at the comfort distance"],
+                  "final_pelvis_to_drawer_m"),
     ]
-    failed = [name for name, ok, _ in criteria if not ok]
+    failed = failed_criteria(report)
     if report.get("success"):
         verdict = Verdict(True, "Success: the drawer opened, the object reached, every step within 10 mm, "
                                 "the pelvis at the comfort distance")
     else:
         verdict = Verdict(False, "Failed: " + (", ".join(f"not {name}" for name in failed) or "a criterion"))
-    figures = [f for _, _, f in criteria]
     if report.get("drawer_pull_force_peak_n") is not None:
         figures.append(KeyFigure("Peak pull on the drawer", f"{report['drawer_pull_force_peak_n']:.1f} N",
                                  "from the contacts", key="drawer_pull_force_peak_n"))
