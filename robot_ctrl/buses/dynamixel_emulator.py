@@ -31,12 +31,20 @@ is its Hardware Error Status: a servo with one set is limp and refuses torque, a
 overload shutdown. Gains beyond the register range (``GAIN_MAX``) are ignored, as a servo ignores
 an out-of-range write. Every applied command is kept in
 ``received`` (joint side, with the plant time).
+
+The emulated servos answer from threads of the host's own interpreter, while the host's port
+threads busy-poll for the reply (the SDK's ``rxPacket``): at Python's default 5 ms switch interval
+each of the few hand-overs of the interpreter lock an answer needs waits out a slice, replies took
+up to 34 ms and missed the SDK's packet timeout (16 ms latency timer × 2 + 2 ms). While the
+emulator serves, the switch interval is ``SWITCH_INTERVAL`` (answers within a few milliseconds);
+``close`` restores it. A real servo answers in microseconds, whatever the host's interpreter does.
 """
 
 from __future__ import annotations
 
 import os
 import select
+import sys
 import threading
 import time
 import tty
@@ -52,6 +60,7 @@ from robot_ctrl.hw.types import JointCommand, JointState
 
 CURRENT_LIMIT = 32767  # the emulated model's Current Limit register (its largest value)
 PENDING_WAIT = 0.5  # [s] the longest a Sync Read waits for the rest of a tick's goals
+SWITCH_INTERVAL = 1e-4  # [s] the interpreter's thread switch interval while the emulator serves
 #: address: size
 EEPROM = {dxl.RETURN_DELAY_TIME: 1, dxl.OPERATING_MODE: 1, dxl.CURRENT_LIMIT: 2, **dxl.PROTECTIVE_LIMITS}
 #: The protective limits' X-series defaults (address: value); stored and read back. Of them the
@@ -92,6 +101,7 @@ class DynamixelEmulator:
         self._last_packet = time.monotonic()
         self._fresh_goal = np.zeros(n, dtype=bool)  # a goal of this tick has come
         self._stepped = threading.Condition(self._lock)
+        self._switch_interval: float | None = None  # the interpreter's own, while serving
         self._running = threading.Event()
         self._threads: list[threading.Thread] = []
         self._fds: list[int] = []
@@ -104,6 +114,8 @@ class DynamixelEmulator:
         self._state = self.plant.read()
         self.goal[:] = np.round(self._motor_position() / self.units.position)
         self._running.set()
+        self._switch_interval = sys.getswitchinterval()
+        sys.setswitchinterval(min(self._switch_interval, SWITCH_INTERVAL))
         for name in self.config.buses:
             master, slave = os.openpty()
             tty.setraw(slave)
@@ -122,6 +134,9 @@ class DynamixelEmulator:
             os.close(fd)
         self._threads.clear()
         self._fds.clear()
+        if self._switch_interval is not None:
+            sys.setswitchinterval(self._switch_interval)
+            self._switch_interval = None
         self.plant.close()
 
     def body_state(self) -> JointState:

@@ -7,15 +7,38 @@ split over several ports spends the longest port's time per tick, not their sum.
 (every servo's model says ``fast_sync_read: true``) the present state comes from a Fast Sync Read:
 one status packet that the servos fill one after the other, instead of one status packet per
 servo, each with its own header and turnaround.
+
+A pseudo-terminal (``/dev/pts/N``) is a servo emulator in software, not a wire: its replies wait on
+the emulating program's scheduling (in the same interpreter, on its lock), so the SDK's packet
+timeout (16 ms latency timer × 2 + 2 ms + the bytes' time) gets ``EMULATED_REPLY_MARGIN`` more
+there. A serial adapter's timeout is the SDK's own.
 """
 
 from __future__ import annotations
+
+import os
 
 import dynamixel_sdk as sdk
 import numpy as np
 
 from robot_ctrl.buses import dynamixel_protocol as dxl
 from robot_ctrl.buses.bus_config import MotorMap
+
+
+EMULATED_REPLY_MARGIN = 200.0  # [ms] added to the SDK's packet timeout on a pseudo-terminal
+
+
+class _EmulatedPortHandler(sdk.PortHandler):
+    """The SDK's port handler with ``EMULATED_REPLY_MARGIN`` more to wait for a reply."""
+
+    def setPacketTimeout(self, packet_length):
+        super().setPacketTimeout(packet_length)
+        self.packet_timeout += EMULATED_REPLY_MARGIN
+
+
+def is_pseudo_terminal(device: str) -> bool:
+    """Whether ``device`` is the slave end of a pseudo-terminal (a software emulator's port)."""
+    return os.path.realpath(device).startswith("/dev/pts/")
 
 
 class DynamixelPort:
@@ -30,7 +53,7 @@ class DynamixelPort:
         self.port = None
 
     def open(self) -> None:
-        port = sdk.PortHandler(self.device)
+        port = (_EmulatedPortHandler if is_pseudo_terminal(self.device) else sdk.PortHandler)(self.device)
         try:
             opened = port.openPort()
         except Exception as exc:  # pyserial's SerialException: no such device, no permission
