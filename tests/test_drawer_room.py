@@ -72,6 +72,30 @@ def test_a_cabinet_whose_front_cannot_be_reached_says_why(pose, room, message):
                       GEOMETRY.body_radius, HANDOVER)
 
 
+def test_a_moved_cabinet_is_walked_to_from_where_the_robot_is_inside_the_room_as_it_stands():
+    first = CabinetPose(-2.5, 1.0, 0.0)
+    plan = plan_approach(first, GEOMETRY.footprint(), Room(), GEOMETRY.body_radius, HANDOVER)
+    moved = CabinetPose(-2.0, -1.5, np.radians(30.0))
+    here = np.array([-0.2, 0.3])
+    again = plan_approach(moved, GEOMETRY.footprint(), Room(), GEOMETRY.body_radius, HANDOVER, start=here,
+                          placed=plan.room)
+    # The room stays: the same walls, its inside still the first cabinet's frame's box.
+    assert again.walls == plan.walls and again.room == plan.room
+    # From the robot, clear of the moved cabinet and of the walls, into the moved cabinet's hand-over pose.
+    np.testing.assert_allclose(again.waypoints[0], here)
+    local = moved.from_start(again.waypoints)
+    points = np.concatenate([a + np.linspace(0, 1, 50)[:, None] * (b - a) for a, b in zip(local, local[1:])])
+    assert min(clearance_from(GEOMETRY.footprint(), p) for p in points) >= GEOMETRY.body_radius - 1e-9
+    assert all(plan.room.holds(p, GEOMETRY.body_radius) for p in moved.to_start(points))
+    np.testing.assert_allclose(local[-1], [-HANDOVER, 0.0], atol=1e-9)
+    assert np.isclose(again.handover[2], moved.yaw)
+    # Placed afresh round the moved cabinet, the room would be another one: the jump does not move walls.
+    assert plan_approach(moved, GEOMETRY.footprint(), Room(), GEOMETRY.body_radius, HANDOVER).walls != plan.walls
+    with pytest.raises(ValueError, match="the cabinet overlaps the robot's path"):
+        plan_approach(moved, GEOMETRY.footprint(), Room(), GEOMETRY.body_radius, HANDOVER,
+                      start=moved.to_start(np.array([-0.2, 0.0])), placed=plan.room)
+
+
 def test_a_cabinet_on_the_robot_is_refused():
     with pytest.raises(ValueError, match="overlaps the robot's start"):
         plan_approach(CabinetPose(1.3, 0.0, np.pi), GEOMETRY.footprint(), Room(), 1.5, HANDOVER)
@@ -84,7 +108,19 @@ def test_a_cabinet_on_the_robot_is_refused():
     (["--cabinet", "2.13,-0.77,2"], "--cabinet = 2.13,-0.77,2: the start is not inside the 6 x 6 m room"),
     (["--cabinet", "3,1,200", "--room", "1,6"], "--room width = 1 m is outside the allowed range [2, 20] m"),
     (["--room", "8,8"], "--room and --free-standing need --cabinet"),
-    (["--cabinet", "3,1,200", "--goal-jump", "2:3.5"], "goal jump: a cabinet the robot walks round to does not move"),
+    (["--cabinet", "3,1,200", "--goal-jump", "2:3.5"],
+     "--goal-jump distance = 3.5 m: a cabinet the robot walks round to moves to a pose (TIME:X,Y,YAW_DEG)"),
+    (["--distance", "2", "--goal-jump", "2:2.5,1,90"], "--goal-jump pose = 2.5,1,90: a pose moves a cabinet the robot "
+                                                       "walks round to (--cabinet)"),
+    (["--cabinet=-2.5,1.0,0", "--goal-jump", "3:2.5,1"], "--goal-jump '3:2.5,1' must be TIME:X,Y,YAW_DEG in a room"),
+    (["--cabinet=-2.5,1.0,0", "--goal-jump", "30:-2.5,-0.8,0"],
+     "--goal-jump time = 30 s is outside the allowed range (0, 9.2] s (while the robot surely still walks"),
+    (["--cabinet=-2.5,1.0,0", "--goal-jump", "2:-1.2,0.4,0"],
+     "--goal-jump pose = -1.2,0.4,0: the cabinet would land on the robot's path"),
+    (["--cabinet=-2.5,1.0,0", "--goal-jump", "2:-2.5,-2.8,0"],
+     "--goal-jump pose = -2.5,-2.8,0: the cabinet does not fit inside the room where it stands"),
+    (["--cabinet=-2.5,1.0,0", "--goal-jump", "2:-2.5,-0.8,0", "--goal-jump", "3:-2.5,-1.0,0"],
+     "--goal-jump pose = -2.5,-1,0: a cabinet in a room moves once (2 jumps)"),
     (["--cabinet", "3,1,200", "--method", "naive"], "--method = naive walks straight in"),
 ])
 def test_drawer_rejects_a_cabinet_it_cannot_reach(args, message, capsys, tmp_path):
@@ -167,3 +203,29 @@ def test_the_drawer_at_an_oblique_pose_behind_the_robot(tmp_path):
     assert report["room"]["against_wall"] is True and len(report["room"]["corners_m"]) == 4
     page = (tmp_path / "report.html").read_text()
     assert page.count("data:image/png;base64,") >= 6
+
+
+def test_a_cabinet_that_moves_during_the_approach_is_walked_to_where_it_went(tmp_path):
+    """At 4 s, while the robot walks to the cabinet's front at (2, 2) facing -y, the cabinet jumps to
+    (2.5, -1) facing 150°: the robot plans its path again from where it is, inside the room as it
+    stands, and the synthesis lands the pelvis at the comfort distance of the moved cabinet."""
+    status = main(["drawer", "--cabinet=2.0,2.0,270", "--goal-jump", "4:2.5,-1.0,150", "--slot", "front_left",
+                   "--quiet", "--no-html", "--out", str(tmp_path)])
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert status == 0 and report["fell"] is False and report["success"] is True
+    assert report["cabinet_moves"][0]["time_s"] == 4.0 and report["cabinet_moves"][0]["front_yaw_deg"] == 150.0
+    approach = report["approach"]
+    (again,) = approach["replanned"]
+    assert again["time_s"] == 4.0 and approach["failed"] is None
+    # Planned again from where the robot was then, to the moved cabinet's hand-over pose.
+    walked = np.array(approach["realized_path_m"])
+    assert np.linalg.norm(walked[int(4.0 / 0.25)] - again["planned_path_m"][0]) < 0.1
+    moved = CabinetPose(2.5, -1.0, np.radians(150.0))
+    handover = moved.to_start(np.array([-report["approach"]["handover_distance_m"], 0.0]))
+    np.testing.assert_allclose(again["planned_path_m"][-1], handover, atol=1e-3)
+    assert approach["handover_pose"][2] == pytest.approx(-30.0)
+    # The pelvis ends against the moved cabinet: at the comfort distance, on its axis, facing it.
+    assert abs(report["final_pelvis_to_drawer_m"] - report["comfort_distance_m"]) <= 0.03
+    assert abs(report["final_pelvis_lateral_m"]) <= 0.03 and abs(report["final_pelvis_yaw_error_deg"]) <= 5
+    assert report["step_length_error_max_m"] <= 0.010 and report["grasp"] == "contact"
+    assert report["safety"]["interventions"] == {}

@@ -138,6 +138,30 @@ def test_stop_at_puts_the_feet_on_the_goal():
         np.testing.assert_allclose(gen.feet[side].xy, goal[side].xy, atol=1e-9)
 
 
+def test_a_walk_from_standing_at_turned_footsteps_goes_the_way_the_feet_stand():
+    """A stop at footsteps turned from the walk's heading leaves the robot facing their way: the next
+    walk goes straight ahead of the feet, not along the heading it walked before."""
+    gen = standing_generator()
+    gen.set_velocity(0.15, 0.0, 0.0)
+    for _ in range(30):
+        gen.update()
+    turn = 0.4  # [rad] the stop footsteps' yaw, the walk's heading 0
+    ahead = rotation(turn)
+    goal = [Footstep(side, *(np.array([0.6, 0.0]) + ahead @ [0.0, y]), turn) for side, y in (("left", 0.085),
+                                                                                           ("right", -0.085))]
+    gen.stop_at(*goal)
+    for _ in range(80):
+        gen.update()
+    assert gen.standing and gen.feet["left"].yaw == pytest.approx(turn)
+    before = [gen.feet[s].xy.copy() for s in ("left", "right")]
+    gen.set_velocity(0.2, 0.0, 0.0)
+    for _ in range(60):
+        gen.update()
+    walked = np.mean([gen.feet[s].xy for s in ("left", "right")], axis=0) - np.mean(before, axis=0)
+    assert np.linalg.norm(walked) > 0.3
+    assert abs(np.arctan2(walked[1], walked[0]) - turn) < 0.02 and gen.heading == pytest.approx(turn, abs=1e-9)
+
+
 def test_stop_at_stands_although_every_landed_sole_turns_a_little():
     """A real sole lands a few milliradians off its footstep's yaw and the plan follows it
     (``shift``): the stop must still end on the goal footsteps within the stop tolerances instead of

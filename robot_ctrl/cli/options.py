@@ -19,7 +19,8 @@ COUPLING_OPTIONS = {"k": "--k", "alpha": "--alpha", "m_d": "--md", "m_z": "--mz"
                     "k_sine": "--ksine", "lowpass": "--lowpass"}
 GROUP_OPTIONS = {**COUPLING_OPTIONS, "n": "--robots", "seed": "--seed"}
 DRAWER_OPTIONS = {"slot": "--slot", "distance": "--distance", "goal jump distance": "--goal-jump distance",
-                  "goal jump time": "--goal-jump time", "cabinet": "--cabinet", "method": "--method"}
+                  "goal jump time": "--goal-jump time", "goal jump pose": "--goal-jump pose", "cabinet": "--cabinet",
+                  "method": "--method"}
 ROOM_SIDE = (2.0, 20.0)  # [m] of --room's width and depth
 DISTURBANCE_OPTIONS = {"mass_scale": "--mass-scale", "friction_scale": "--friction-scale",
                        "latency": "--latency-ms: latency", "push time": "--push: push time",

@@ -80,19 +80,21 @@ def _drawer(args: argparse.Namespace) -> int:
     from robot_ctrl.robot.model import load_robot
     from robot_ctrl.scenarios.drawer import run_drawer
     from robot_ctrl.scenarios.drawer_task import DrawerTask
+    from robot_ctrl.geometry.room import handover_pose
     from robot_ctrl.sim.drawer_cabinet import DrawerPlacement
     from robot_ctrl.synthesis.learned import load_primitives
     from robot_ctrl.synthesis.synthesizer import SynthesisError
 
-    jumps = tuple(time_distance(j, "--goal-jump") for j in args.goal_jump)
     cabinet, room = cabinet_and_room(args)
+    jumps = tuple(time_distance(j, "--goal-jump") for j in args.goal_jump if "," not in j)
+    moves = tuple(cabinet_move(j) for j in args.goal_jump if "," in j)
     robot = load_robot(args.robot)
     distance = (args.distance if cabinet is None else cabinet.x if cabinet.straight_ahead
                 else math.hypot(cabinet.x, cabinet.y))
     task = DrawerTask(distance, args.slot, jumps, FilterMode(args.dynfilter or robot.config.drawer_dynfilter),
                       base_state=base_state_of(args), speed=SpeedClass(args.speed),
                       position_feedback=not args.no_position_feedback,
-                      method=DrawerMethod(args.method), cabinet=cabinet, room=room)
+                      method=DrawerMethod(args.method), cabinet=cabinet, room=room, moves=moves)
     parse_disturbances(args)
     sources = parse_sources(args.sources, "drawer: --sources")
     if len(sources) != 1:
@@ -107,7 +109,9 @@ def _drawer(args: argparse.Namespace) -> int:
     placement = DrawerPlacement(task.distance, task.slot, tuple((j.time, j.distance) for j in jumps))
     if approach is not None:  # in a room: the cabinet stands ahead of the hand-over pose
         placement = replace(placement, distance=approach.handover_distance, frame=tuple(approach.handover),
-                            walls=approach.walls)
+                            walls=approach.walls,
+                            moves=tuple((m.time, tuple(handover_pose(m.pose, approach.handover_distance)))
+                                        for m in moves))
     robot, disturbances, hardware = simulation(args, robot, prop=placement)
     with hardware as hw, on_the_robot(args, robot, hw, task.control_dt) as (recorders, pacer):
         try:
@@ -135,6 +139,23 @@ def cabinet_and_room(args: argparse.Namespace):
         if not lo <= v <= hi:
             raise ConfigError(f"drawer: --room {name} = {v:g} m is outside the allowed range [{lo:g}, {hi:g}] m")
     return CabinetPose(x, y, math.radians(yaw)), Room(width, depth, against_wall=not args.free_standing)
+
+
+def cabinet_move(text: str):
+    """``TIME:X,Y,YAW_DEG`` (a goal jump in a room) as a :class:`~robot_ctrl.geometry.room.CabinetMove`;
+    the values' own ranges are the task's to check."""
+    from robot_ctrl.geometry.room import CabinetMove, CabinetPose
+
+    time, _, pose = text.partition(":")
+    try:
+        values = (float(time), *(float(v) for v in pose.split(",")))
+    except ValueError:
+        values = ()
+    if len(values) != 4 or not all(math.isfinite(v) for v in values):
+        raise ConfigError(f"drawer: --goal-jump {text!r} must be TIME:X,Y,YAW_DEG in a room, four finite numbers "
+                          "[s]:[m],[m],[deg], e.g. 3:2.5,1.0,200")
+    t, x, y, yaw = values
+    return CabinetMove(t, CabinetPose(x, y, math.radians(yaw)))
 
 
 def check_drawer_tasks(tasks: dict, robot, options: dict[str, str] | None = None, dataset: Path | None = None,
@@ -244,7 +265,9 @@ def _add_drawer(sub, sim) -> None:
                    help="with --cabinet: the cabinet stands free, the room centred on the start, the cabinet and "
                         "the walk in to it")
     p.add_argument("--goal-jump", action="append", default=[], metavar="TIME:DISTANCE",
-                   help="at TIME [s] the cabinet moves to DISTANCE [m]; the synthesis replans (repeatable)")
+                   help="at TIME [s] the cabinet moves to DISTANCE [m]; the synthesis replans (repeatable); with "
+                        "--cabinet, TIME:X,Y,YAW_DEG moves it to that pose while the robot walks its approach, "
+                        "which is planned again (once)")
     p.add_argument("--dynfilter", choices=[m.value for m in FilterMode], default=None,
                    help="dynamic filter: off, legs only, or full body (default: full, or the robot config's "
                         "drawer.dynfilter)")

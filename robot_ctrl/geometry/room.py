@@ -17,6 +17,10 @@ radius (its corners, the start, the hand-over pose and a point ``LEAD_IN`` befor
 cabinet's axis), inside the room shrunk by the same radius. The robot walks it as the walking stack
 does well: it turns on the spot to face the next corner, walks straight to it, and comes in to the
 hand-over pose along the cabinet's axis, facing the cabinet.
+
+When the cabinet moves (a goal jump in a room), the room stays where it was placed for the first
+pose (:class:`PlacedRoom`, a box of that pose's frame) and the path is planned again from where the
+robot is to the moved cabinet's front.
 """
 
 from __future__ import annotations
@@ -61,6 +65,14 @@ class CabinetPose:
     def straight_ahead(self) -> bool:
         """Straight ahead of the start, facing it: the task without a room (``--distance``)."""
         return self.y == 0.0 and self.x > 0.0 and abs(wrap_angle(self.front_yaw - np.pi)) < 1e-12
+
+
+@dataclass(frozen=True)
+class CabinetMove:
+    """A goal jump in a room: at ``time`` [s] the cabinet stands at ``pose`` instead (start frame)."""
+
+    time: float
+    pose: CabinetPose
 
 
 @dataclass(frozen=True)
@@ -119,17 +131,34 @@ class Wall:
 
 
 @dataclass(frozen=True)
+class PlacedRoom:
+    """A room as it stands: its inside, ``interior``, a box of ``frame`` (the frame of the cabinet
+    pose it was placed for, which a moved cabinet leaves behind)."""
+
+    frame: CabinetPose
+    interior: Box
+
+    def holds(self, p: np.ndarray, margin: float) -> bool:
+        """Whether the start-frame point ``p`` is inside, ``margin`` [m] from every wall."""
+        return self.interior.grown(-margin).contains(self.frame.from_start(p))
+
+
+@dataclass(frozen=True)
 class Approach:
     """The plan to the hand-over: ``waypoints`` (n, 2) [m] from the start to the hand-over pose
     (start frame), ``handover`` (x, y, yaw) [m, rad] the pelvis pose (start frame) facing the cabinet
-    ``handover_distance`` [m] in front of its panel, the room's ``walls`` and its ``interior`` (cabinet
-    frame)."""
+    ``handover_distance`` [m] in front of its panel, the room's ``walls`` and where it stands."""
 
     waypoints: np.ndarray
     handover: np.ndarray
     handover_distance: float
     walls: tuple[Wall, ...]
-    interior: Box
+    room: PlacedRoom
+
+    @property
+    def interior(self) -> Box:
+        """The room's inside, a box of ``room.frame`` (the planned cabinet's frame, unless it moved)."""
+        return self.room.interior
 
     @property
     def length(self) -> float:
@@ -168,38 +197,55 @@ def room_walls(interior: Box, cabinet: CabinetPose) -> tuple[Wall, ...]:
     return tuple(walls)
 
 
+def handover_pose(cabinet: CabinetPose, distance: float) -> np.ndarray:
+    """The pelvis pose (x, y, yaw) [m, rad] (start frame) on the cabinet's axis ``distance`` [m] in
+    front of its panel, facing it."""
+    x, y = cabinet.to_start(np.array([-distance, 0.0]))
+    return np.array([x, y, cabinet.yaw])
+
+
 def plan_approach(cabinet: CabinetPose, footprint: Box, room: Room, radius: float, handover_distance: float,
-                  start=(0.0, 0.0)) -> Approach:
+                  start=(0.0, 0.0), placed: PlacedRoom | None = None) -> Approach:
     """The path from ``start`` (start frame) to the pelvis ``handover_distance`` [m] in front of the
     cabinet's panel on its axis, facing it, clear by ``radius`` [m] of the cabinet's ``footprint``
     (cabinet frame: the cabinet with its open drawer and handle) and of the walls; a cabinet straight
-    ahead of the start, facing it, is walked to by the sequence itself (a one-point path). Raises
-    ValueError saying why when there is none (too near, too far, overlapping, no room, no way)."""
+    ahead of the start, facing it, is walked to by the sequence itself (a one-point path). The room
+    is placed as ``room`` says round the cabinet, or stands where it was (``placed``: the cabinet has
+    moved, the robot is at ``start``). Raises ValueError saying why when there is none (too near or
+    far from the start frame's origin, overlapping, no room, no way)."""
     start = np.asarray(start, float)
-    distance = float(np.hypot(cabinet.x - start[0], cabinet.y - start[1]))
+    distance = float(np.hypot(cabinet.x, cabinet.y))
     if not NEAREST <= distance <= FARTHEST:
         raise ValueError(f"the front panel is {distance:.2f} m from the start: allowed {NEAREST}-{FARTHEST} m")
     obstacle = footprint.grown(radius)
     s = cabinet.from_start(start)
     if obstacle.contains(s):
-        raise ValueError(f"the cabinet overlaps the robot's start (it needs {radius:.2f} m round it)")
-    interior = room_interior(room, cabinet, footprint, start, handover_distance + LEAD_IN)
-    free = interior.grown(-radius)
-    if not free.contains(s):
-        raise ValueError(f"the start is not inside the {room.width:g} x {room.depth:g} m room "
-                         f"({'its back against the wall' if room.against_wall else 'free-standing'}) with "
-                         f"{radius:.2f} m to the walls: a larger --room, or the cabinet elsewhere")
-    if cabinet.straight_ahead:  # the sequence takes over where the robot stands
-        return Approach(start[None, :], np.array([*start, 0.0]), float(-s[0]), room_walls(interior, cabinet), interior)
+        raise ValueError(f"the cabinet overlaps the robot's {'start' if placed is None else 'path'} "
+                         f"(it needs {radius:.2f} m round it)")
+    if placed is None:
+        placed = PlacedRoom(cabinet, room_interior(room, cabinet, footprint, start, handover_distance + LEAD_IN))
+        if not placed.holds(start, radius):
+            raise ValueError(f"the start is not inside the {room.width:g} x {room.depth:g} m room "
+                             f"({'its back against the wall' if room.against_wall else 'free-standing'}) with "
+                             f"{radius:.2f} m to the walls: a larger --room, or the cabinet elsewhere")
+        if cabinet.straight_ahead:  # the sequence takes over where the robot stands
+            return Approach(start[None, :], np.array([*start, 0.0]), float(-s[0]),
+                            room_walls(placed.interior, cabinet), placed)
+    elif not all(placed.holds(c, 0.0) for c in cabinet.to_start(footprint.corners())):
+        raise ValueError("the cabinet does not fit inside the room where it stands")
+
+    def free(p: np.ndarray) -> bool:  # a cabinet-frame point the robot's pelvis may be at
+        return placed.holds(cabinet.to_start(p), radius)
+
     goal = np.array([-handover_distance, 0.0])
-    if not free.contains(goal):
+    if not free(goal):
         raise ValueError(f"the room leaves no {handover_distance:.2f} m in front of the cabinet to walk in from")
     lead_in = goal - [LEAD_IN, 0.0]
-    nodes = [s, goal] + ([lead_in] if free.contains(lead_in) else [])
+    nodes = [s, goal] + ([lead_in] if free(lead_in) else [])
     out = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]]) * CORNER_OFFSET
-    nodes += [c for c in obstacle.corners() + out if free.contains(c)]
+    nodes += [c for c in obstacle.corners() + out if free(c)]
 
-    def edge(i: int, j: int) -> bool:
+    def edge(i: int, j: int) -> bool:  # the room is convex: a segment between two free points stays in it
         a, b = nodes[i], nodes[j]
         if obstacle.crosses(a, b):
             return False
@@ -232,6 +278,5 @@ def plan_approach(cabinet: CabinetPose, footprint: Box, room: Room, radius: floa
     local = np.array([nodes[i] for i in reversed(path)])
     waypoints = cabinet.to_start(local)
     waypoints[0] = start
-    hx, hy = cabinet.to_start(goal)
-    return Approach(waypoints, np.array([hx, hy, cabinet.yaw]), handover_distance, room_walls(interior, cabinet),
-                    interior)
+    return Approach(waypoints, handover_pose(cabinet, handover_distance), handover_distance,
+                    room_walls(placed.interior, placed.frame), placed)

@@ -27,7 +27,7 @@ from robot_ctrl.eval.recording.recorders import HeldFor, ProgressBar, TimeLimit
 from robot_ctrl.eval.recording.report_file import write_report
 from robot_ctrl.eval.recording.walk_log import WalkLog
 from robot_ctrl.eval.recording.walk_recorder import WalkRecorder
-from robot_ctrl.geometry import GRAVITY, absolute_pose, base_pose_xy_yaw
+from robot_ctrl.geometry import GRAVITY, base_pose_xy_yaw
 from robot_ctrl.hw.safety import SafetyLayer
 from robot_ctrl.modes import DrawerMethod
 from robot_ctrl.robot.model import RobotModel
@@ -60,12 +60,15 @@ def run_drawer(robot: RobotModel, hw: SafetyLayer, primitives: WalkReachPrimitiv
     controller = stepped.walking if naive else stepped
     start = base_pose_xy_yaw(run.state.base_pos, run.state.base_quat_xyzw)
     plan = task.approach(primitives.comfort_distance, geometry)
-    if plan is None:
+    approach = None
+    if plan is not None and plan.walks:
+        approach = ApproachWalk(controller, plan, lambda: controller.start_pose, log, task.moves,
+                                task.replanner(plan, geometry))
+    if approach is None:
         frame, distance = (lambda: controller.start_pose), task.distance
-    else:  # in a room: the task's frame is the hand-over pose, the cabinet ahead of it
-        frame, distance = (lambda: absolute_pose(plan.handover, controller.start_pose)), plan.handover_distance
+    else:  # in a room: the task's frame is the hand-over pose (that of the path now walked), the cabinet ahead of it
+        frame, distance = (lambda: approach.handover), plan.handover_distance
     targets = DrawerTargets(frame, float(run.state.base_pos[2]), distance, task.slot, task.jumps, geometry)
-    approach = ApproachWalk(controller, plan, lambda: controller.start_pose, log) if plan and plan.walks else None
     if naive:  # DrawerTask.check: straight ahead
         commander = NaiveCommander(stepped, primitives, targets, log, speed=task.speed.scale)
     else:
@@ -77,12 +80,16 @@ def run_drawer(robot: RobotModel, hw: SafetyLayer, primitives: WalkReachPrimitiv
     drawer = DrawerRecorder(commander, robot)
     capture = PushCapture(controller, disturbances.pushes, float(start[2]))
     done = HeldFor(lambda: commander.done, STAND_AFTER, "the task ended")
+    stops = [done]
     limit = 8.0 * max([distance] + [j.distance for j in task.jumps]) + 15.0
     if approach is not None:  # turning on the spot at TURN_RATE and walking at a third of SPEED, at worst
-        limit += 3.0 * plan.length / SPEED + 2 * np.pi * (len(plan.waypoints) - 1) / TURN_RATE
+        for path in [plan] + task.move_approaches(primitives.comfort_distance, geometry):
+            limit += 3.0 * path.length / SPEED + 2 * np.pi * (len(path.waypoints) - 1) / TURN_RATE
+        stops.append(HeldFor(lambda: approach.failed is not None and controller.standing, STAND_AFTER,
+                             "the approach found no way to the moved cabinet"))
     bar = ProgressBar(limit / 2, progress)
     result = run.loop(dt, bar, recorders=[walk, drawer, capture], commanders=[commander],
-                      stops=[done, TimeLimit(limit, "the task did not end")])
+                      stops=stops + [TimeLimit(limit, "the task did not end")])
     log(result.stop_reason)
     report = run.metrics.report() | {"robot": robot.name, "distance_m": task.distance, "slot": task.slot,
                                      "goal_jumps": [{"time_s": j.time, "distance_m": j.distance} for j in task.jumps],
@@ -95,7 +102,7 @@ def run_drawer(robot: RobotModel, hw: SafetyLayer, primitives: WalkReachPrimitiv
         push_capture=capture.report()) | run.report(result, disturbances)
     report["success"] = report["success"] and done.held(result.states[0].t) >= STAND_AFTER
     if task.in_room:
-        report |= room_layout(task.cabinet, task.room, plan, geometry.footprint())
+        report |= room_layout(task.cabinet, task.room, plan, geometry.footprint(), task.moves)
     log(f"success: {str(report['success']).lower()}  fell: {str(report['fell']).lower()}  steps "
         f"{report['planned_step_lengths_m']} planned, {report['realized_step_lengths_m']} realized [m]  pelvis to "
         f"drawer {report['final_pelvis_to_drawer_m']} m (comfort {report['comfort_distance_m']})  drawer open "

@@ -10,7 +10,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from robot_ctrl.geometry.drawer_geometry import SLOTS, DrawerGeometry
-from robot_ctrl.geometry.room import Approach, CabinetPose, Room, plan_approach
+from robot_ctrl.control.commanders.approach_walk import SPEED, STOP_DISTANCE, TURN_FIRST, TURN_RATE
+from robot_ctrl.geometry.room import Approach, CabinetMove, CabinetPose, Room, plan_approach
 from robot_ctrl.modes import BaseState, DrawerMethod, FilterMode, SpeedClass
 from robot_ctrl.synthesis.synthesizer import GoalJump
 
@@ -36,6 +37,7 @@ class DrawerTask:
     method: DrawerMethod = DrawerMethod.OURS
     cabinet: CabinetPose | None = None  # in a room: where the cabinet stands (start frame); None: ``distance`` ahead
     room: Room = Room()
+    moves: tuple[CabinetMove, ...] = ()  # in a room: goal jumps of the cabinet while the robot walks its approach
 
     @property
     def in_room(self) -> bool:
@@ -52,7 +54,22 @@ class DrawerTask:
             return plan_approach(c, geometry.footprint(), self.room, geometry.body_radius,
                                  comfort + geometry.handover_walk)
         except ValueError as exc:
-            raise ValueError(f"cabinet = {c.x:g},{c.y:g},{np.degrees(c.front_yaw):g}: {exc}") from exc
+            raise ValueError(f"cabinet = {_pose_text(c)}: {exc}") from exc
+
+    def replanner(self, first: Approach, geometry: DrawerGeometry):
+        """``replan(pose, xy)``: the approach from the start-frame point ``xy`` to the cabinet moved
+        to ``pose``, inside the room where ``first`` placed it (ValueError: none)."""
+        def replan(pose: CabinetPose, xy) -> Approach:
+            return plan_approach(pose, geometry.footprint(), self.room, geometry.body_radius, first.handover_distance,
+                                 start=xy, placed=first.room)
+        return replan
+
+    def move_approaches(self, comfort: float, geometry: DrawerGeometry) -> list[Approach]:
+        """Each goal jump's approach from the start, as if the cabinet had stood there from the first
+        (what :meth:`check` requires of a jump, and what bounds how long the walk may take)."""
+        first = self.approach(comfort, geometry)
+        replan = self.replanner(first, geometry)
+        return [replan(m.pose, (0.0, 0.0)) for m in self.moves]
 
     def check(self, comfort: float, shortest: float, geometry: DrawerGeometry | None = None) -> None:
         """Raise ValueError naming the setting and its allowed range (a cabinet straight ahead in a
@@ -61,7 +78,8 @@ class DrawerTask:
         if self.slot not in SLOTS:
             raise ValueError(f"slot = {self.slot!r} is not one of {', '.join(SLOTS)}")
         geometry = geometry or DrawerGeometry()
-        if self.in_room and self.approach(comfort, geometry).walks:
+        first = self.approach(comfort, geometry) if self.in_room else None
+        if first is not None and first.walks:
             walk = geometry.handover_walk
             if comfort + walk < nearest:
                 raise ValueError(f"drawer.handover_walk = {walk} m is shorter than the {nearest - comfort:.2f} m "
@@ -69,9 +87,14 @@ class DrawerTask:
             if self.method is DrawerMethod.NAIVE:
                 raise ValueError("method = naive walks straight in: its cabinet stands straight ahead, facing it")
             if self.jumps:
-                raise ValueError("goal jump: a cabinet the robot walks round to does not move yet (only one "
-                                 "straight ahead, facing it)")
+                raise ValueError(f"goal jump distance = {self.jumps[0].distance:g} m: a cabinet the robot walks "
+                                 "round to moves to a pose (TIME:X,Y,YAW_DEG), not along its axis")
+            self._check_moves(first, geometry)
             return
+        if self.moves:
+            raise ValueError(f"goal jump pose = {_pose_text(self.moves[0].pose)}: a pose moves a cabinet the robot "
+                             "walks round to (--cabinet); one straight ahead, facing it, jumps along its axis "
+                             "(TIME:DISTANCE)")
         for name, d in [("distance", self.distance)] + [("goal jump distance", j.distance) for j in self.jumps]:
             if not nearest <= d <= MAX_DISTANCE:
                 raise ValueError(f"{name} = {d} m is outside the allowed range [{nearest}, {MAX_DISTANCE}] m")
@@ -83,3 +106,36 @@ class DrawerTask:
                 raise ValueError(f"goal jump distance = {j.distance} m must be farther than the {before} m before it "
                                  "(the cabinet moves away, thesis Fig. 3.39; nearer would put it into the robot)")
             before = j.distance
+
+    def _check_moves(self, first: Approach, geometry: DrawerGeometry) -> None:
+        """One goal jump at most in a room, while the robot surely still walks its approach (before
+        it could have turned to the path's first stretch at ``TURN_RATE`` and walked the path to where
+        it stops at ``SPEED``), to a pose it can walk to from where it may be: off the path it walked,
+        reachable inside the room as it stands."""
+        if len(self.moves) > 1:
+            raise ValueError(f"goal jump pose = {_pose_text(self.moves[1].pose)}: a cabinet in a room moves once "
+                             f"({len(self.moves)} jumps)")
+        d = first.waypoints[1] - first.waypoints[0]
+        turn = abs(float(np.arctan2(d[1], d[0])))  # the start heading is the start frame's x
+        latest = round(max(first.length - STOP_DISTANCE, 0.0) / SPEED + max(turn - TURN_FIRST, 0.0) / TURN_RATE, 1)
+        replan = self.replanner(first, geometry)
+        grown = geometry.footprint().grown(geometry.body_radius)
+        for move in self.moves:
+            if not 0 < move.time <= latest:
+                raise ValueError(f"goal jump time = {move.time:g} s is outside the allowed range (0, {latest:g}] s "
+                                 "(while the robot surely still walks its approach)")
+            p = move.pose
+            where = f"goal jump pose = {_pose_text(p)}"
+            path = p.from_start(first.waypoints)
+            if any(grown.contains(a) or grown.crosses(a, b) for a, b in zip(path, path[1:])):
+                raise ValueError(f"{where}: the cabinet would land on the robot's path "
+                                 f"(it needs {geometry.body_radius:.2f} m round it)")
+            try:
+                replan(p, (0.0, 0.0))
+            except ValueError as exc:
+                raise ValueError(f"{where}: {exc}") from exc
+
+
+def _pose_text(pose: CabinetPose) -> str:
+    """A cabinet pose as the command line gives it: X,Y,YAW_DEG."""
+    return f"{pose.x:g},{pose.y:g},{np.degrees(pose.front_yaw):g}"

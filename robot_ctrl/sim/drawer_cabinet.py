@@ -47,7 +47,7 @@ class DrawerPlacement:
     """Where the cabinet stands: its closed drawer's front panel ``distance`` [m] ahead of the
     robot's start pelvis along the start heading (in a room: ahead of ``frame``, the pose where the
     synthesis takes over, in the start frame); ``jumps``: (time [s], new distance [m]) at which
-    it is moved (thesis Fig. 3.39); ``slot``: the object the right hand reaches for; ``geometry``:
+    it is moved (thesis Fig. 3.39), in a room ``moves``: (time [s], new frame); ``slot``: the object the right hand reaches for; ``geometry``:
     the cabinet, by default the robot's (its config's ``drawer:``)."""
 
     distance: float
@@ -56,9 +56,13 @@ class DrawerPlacement:
     geometry: DrawerGeometry | None = None
     frame: tuple[float, float, float] = (0.0, 0.0, 0.0)  # start-frame pose (x, y, yaw) the distance is along
     walls: tuple[Wall, ...] = ()  # the room's, start frame (none: an open floor)
+    moves: tuple[tuple[float, tuple[float, float, float]], ...] = ()  # in a room: (time [s], the frame from then on)
 
     def distance_at(self, t: float) -> float:
         return cabinet_distance(self.distance, self.jumps, t)
+
+    def frame_at(self, t: float) -> tuple[float, float, float]:
+        return next((f for t0, f in sorted(self.moves, reverse=True) if t >= t0 - 1e-9), self.frame)
 
     # The prop interface (``sim/prop.py``) ------------------------------------------------------
     def scene_mjcf(self, robot: RobotModel) -> Path:
@@ -179,7 +183,7 @@ class DrawerCabinet:
         self.furniture_geoms = geoms_of_bodies(m, [m.body("cabinet").id, self.drawer, *self.objects,
                                                    *(w.id for w in self.walls)])
         self.pelvis_height = 0.0
-        self.distance = placement.distance
+        self.distance, self.frame = placement.distance, placement.frame
         self._grip_in_hand: np.ndarray | None = None  # the handle's grip point in the hand frame at first touch
 
     def place(self, d: mujoco.MjData, pelvis_height: float, t: float = 0.0) -> None:
@@ -191,7 +195,8 @@ class DrawerCabinet:
             geom.size[2], geom.pos[2] = (top + pelvis_height) / 2, (top - pelvis_height) / 2
         self.pelvis_height = pelvis_height
         self.distance = self.placement.distance_at(t)
-        fx, fy, fyaw = self.placement.frame
+        self.frame = self.placement.frame_at(t)
+        fx, fy, fyaw = self.frame
         x, y, yaw = absolute_pose([fx + self.distance * np.cos(fyaw), fy + self.distance * np.sin(fyaw), fyaw],
                                   self.start)
         d.mocap_pos[self.mocap] = [x, y, pelvis_height]
@@ -229,7 +234,7 @@ class DrawerCabinet:
 
     def before_period(self, d: mujoco.MjData) -> None:
         """Move the cabinet (and the dowels with it) when a jump is due."""
-        if self.placement.distance_at(d.time) != self.distance:
+        if self.placement.distance_at(d.time) != self.distance or self.placement.frame_at(d.time) != self.frame:
             self.place(d, self.pelvis_height, d.time)
 
     def hand_to_handle(self, d: mujoco.MjData) -> float:

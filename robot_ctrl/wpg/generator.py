@@ -100,12 +100,14 @@ class WalkingPatternGenerator:
 
     # Reference --------------------------------------------------------------------------------
     def set_velocity(self, vx: float, vy: float, wz: float) -> None:
-        """Reference pelvis velocity in the heading frame: vx, vy [m/s], ωz [rad/s]."""
+        """Reference pelvis velocity in the heading frame: vx, vy [m/s], ωz [rad/s]. A walk from
+        standing starts along the way the feet stand (a stop at turned footsteps turned them)."""
         v = np.array([vx, vy, wz], dtype=float)
         if not np.all(np.isfinite(v)):
             raise ValueError(f"velocity reference must be finite, got {v}")
         moving = bool(np.any(np.abs(v) > 1e-6))
         if moving and self.phase is GaitPhase.STAND:
+            self.heading = mean_yaw([self.feet["left"].yaw, self.feet["right"].yaw])
             self.stance = "left" if (vy < 0 or (vy == 0 and wz < 0)) else "right"
             self.phase, self.phase_time = GaitPhase.TRANSFER, 0.0
         elif not moving and self.phase is GaitPhase.TRANSFER:

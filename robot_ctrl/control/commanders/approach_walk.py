@@ -6,6 +6,11 @@ carried back by the CoM's offset from the base at the start) is steered to the n
 on the spot while it faces more than ``TURN_FIRST`` away from it, walking straight (with a heading
 correction) once it faces it. Near the hand-over pose the controller is told to stop with the feet at
 the start stance carried to that pose; the approach is done once the robot stands there.
+
+When the cabinet moves (a goal jump in a room, known to the robot as its targets are), the path is
+planned again from the planned base's position at that sample to the moved cabinet's front, and
+walked from its first corner; if there is none, the robot stops where it is and the approach has
+``failed``.
 """
 
 from __future__ import annotations
@@ -16,7 +21,7 @@ import numpy as np
 
 from robot_ctrl.control.controllers.walking_controller import PlanSample, WalkingController
 from robot_ctrl.geometry import SIDES, absolute_pose, rotation, wrap_angle
-from robot_ctrl.geometry.room import Approach
+from robot_ctrl.geometry.room import Approach, CabinetMove, CabinetPose
 from robot_ctrl.wpg.footstep import Footstep
 
 SPEED = 0.3  # [m/s] walking the straight stretches
@@ -31,10 +36,15 @@ STOP_DISTANCE = 0.3  # [m] from the hand-over pose: stop there with both feet
 
 class ApproachWalk:
     def __init__(self, controller: WalkingController, approach: Approach, start_pose: Callable[[], np.ndarray],
-                 log: Callable[[str], None] = print):
+                 log: Callable[[str], None] = print, moves: tuple[CabinetMove, ...] = (),
+                 replan: Callable[[CabinetPose, np.ndarray], Approach] | None = None):
         """``approach``: in the start frame; ``start_pose``: the start frame's world pose (x, y, yaw) as
-        the robot knows it."""
+        the robot knows it; ``moves``: the cabinet's goal jumps, each planned for by ``replan(pose,
+        xy)`` (the approach from the start-frame point ``xy``; ValueError: none)."""
         self.controller, self.approach, self.start_pose, self.log = controller, approach, start_pose, log
+        self.moves, self.replan = sorted(moves, key=lambda m: m.time), replan
+        self.plans: list[tuple[float, Approach]] = [(0.0, approach)]  # (time [s], the path walked from then on)
+        self.failed: str | None = None  # why the robot stopped short of the hand-over pose
         start = start_pose()
         to_base = rotation(start[2]).T
         self.com_offset = to_base @ (controller.plan_sample().com_xy - start[:2])  # base frame
@@ -46,7 +56,7 @@ class ApproachWalk:
     @property
     def done(self) -> bool:
         """Standing at the hand-over pose."""
-        return self.stopping and self.controller.standing
+        return self.stopping and self.failed is None and self.controller.standing
 
     @property
     def handover(self) -> np.ndarray:
@@ -58,6 +68,10 @@ class ApproachWalk:
             return
         c, start = self.controller, self.start_pose()
         base = np.array([*(sample.com_xy - rotation(sample.heading) @ self.com_offset), sample.heading])
+        if self.moves and sample.t >= self.moves[0].time - 1e-9:
+            self._replan(self.moves.pop(0), sample.t, rotation(start[2]).T @ (base[:2] - start[:2]))
+            if self.stopping:
+                return
         waypoints = self.approach.waypoints @ rotation(start[2]).T + start[:2]
         last = len(waypoints) - 1
         while self.corner < last and np.linalg.norm(waypoints[self.corner] - base[:2]) < PASSED:
@@ -77,3 +91,19 @@ class ApproachWalk:
         self.turning = abs(error) > (WALK_WITHIN if self.turning else TURN_FIRST)
         turn = float(np.clip(TURN_GAIN * error, -TURN_RATE, TURN_RATE))
         c.set_velocity(0.0 if self.turning else min(SPEED, SLOW_GAIN * distance + 0.05), 0.0, turn)
+
+    def _replan(self, move: CabinetMove, t: float, xy: np.ndarray) -> None:
+        """The cabinet moved: the path from ``xy`` (start frame) to its new front, or a stop here."""
+        pose = move.pose
+        self.log(f"t = {t:6.2f} s  the cabinet moved to ({pose.x:g}, {pose.y:g}) m facing "
+                 f"{np.degrees(pose.front_yaw):g} deg: planning the approach again")
+        try:
+            self.approach = self.replan(pose, xy)
+        except ValueError as exc:
+            self.failed = f"no way to the moved cabinet: {exc}"
+            self.log(f"t = {t:6.2f} s  approach: {self.failed}; stopping here")
+            self.controller.set_velocity(0.0, 0.0, 0.0)
+            self.stopping = True
+            return
+        self.plans.append((t, self.approach))
+        self.corner, self.turning = 1, True

@@ -13,8 +13,8 @@ in the heading frame. The report (:meth:`DrawerRecorder.report`):
 - ``final_pelvis_to_drawer_m``: measured pelvis to the drawer's closed front panel, at the end;
   ``final_pelvis_lateral_m`` and ``final_pelvis_yaw_error_deg``: its offset across the cabinet's axis
   and its heading against the cabinet's (the task's frame: the start pose, or in a room the
-  hand-over pose); in a room, ``approach``: the path planned and walked, when the sequence took
-  over and the pelvis's error then against the hand-over pose;
+  hand-over pose); in a room, ``approach``: the path planned (and planned again after a goal jump)
+  and walked, when the sequence took over and the pelvis's error then against the hand-over pose;
 - ``grasp``: ``"contact"`` once the left hand's fingers touched the handle (``"none"`` if they never
   did), ``grasp_time_s`` when; ``hand_to_handle_m``: left gripper base to the handle's grip point
   then (or its least value); ``hand_to_object_m``: right gripper base to the object's reach point
@@ -136,7 +136,7 @@ class DrawerRecorder:
         """The measured pelvis against the task's frame (the cabinet's axis, facing it) at the end:
         its offset across the axis [m] and its heading error [deg]; in a room, the approach: the
         path planned and walked (start frame, every ``PATH_EVERY`` s) and the pelvis at the hand-over
-        against the hand-over pose."""
+        against the hand-over pose (the last planned: a goal jump plans the path again, ``replanned``)."""
         c = self.commander
         if not len(a["t"]):
             return {}
@@ -146,14 +146,17 @@ class DrawerRecorder:
                    final_pelvis_yaw_error_deg=_round(float(np.degrees(final[2])), 2))
         if c.approach is None:
             return out
-        plan = c.approach.approach
+        (_, first), plan = c.approach.plans[0], c.approach.approach
         k = min(int(np.searchsorted(a["t"], c.handed_over if c.handed_over is not None else np.inf)), len(a["t"]) - 1)
         at = relative_pose(a["base"][k], frame)
         dt = float(np.median(np.diff(a["t"]))) if len(a["t"]) > 1 else PATH_EVERY
         every = max(1, int(round(PATH_EVERY / dt)))
         walked = np.array([relative_pose(b, a["base"][0])[:2] for b in a["base"][::every]])
         out["approach"] = dict(
-            planned_path_m=np.round(plan.waypoints, 3).tolist(), path_length_m=round(plan.length, 3),
+            planned_path_m=np.round(first.waypoints, 3).tolist(), path_length_m=round(first.length, 3),
+            replanned=[dict(time_s=round(t, 3), planned_path_m=np.round(p.waypoints, 3).tolist(),
+                            path_length_m=round(p.length, 3)) for t, p in c.approach.plans[1:]],
+            failed=c.approach.failed,
             handover_pose=[round(float(plan.handover[0]), 3), round(float(plan.handover[1]), 3),
                            round(float(np.degrees(plan.handover[2])), 2)],
             handover_distance_m=round(plan.handover_distance, 4),
@@ -252,17 +255,20 @@ def failed_criteria(report: dict) -> list[str]:
     return [name for name, met in drawer_criteria(report).items() if not met]
 
 
-def room_layout(cabinet: CabinetPose, room: Room, plan: Approach, footprint: Box) -> dict:
+def room_layout(cabinet: CabinetPose, room: Room, plan: Approach, footprint: Box, moves=()) -> dict:
     """Where the cabinet and the room's walls stood, start frame: the cabinet's pose, its outline on
-    the floor (``footprint``, its frame) and the room's inside corners [m]."""
+    the floor (``footprint``, its frame), the room's inside corners [m], and where each goal jump
+    (``moves``, :class:`~robot_ctrl.geometry.room.CabinetMove`) put the cabinet."""
 
-    def corners(box: Box) -> list:
-        return np.round(cabinet.to_start(box.corners()), 3).tolist()
+    def pose(c: CabinetPose) -> dict:
+        return {"x_m": c.x, "y_m": c.y, "front_yaw_deg": round(float(np.degrees(c.front_yaw)), 2),
+                "footprint_m": np.round(c.to_start(footprint.corners()), 3).tolist()}
 
-    yaw = round(float(np.degrees(cabinet.front_yaw)), 2)
-    return {"cabinet": {"x_m": cabinet.x, "y_m": cabinet.y, "front_yaw_deg": yaw, "footprint_m": corners(footprint)},
+    corners = np.round(plan.room.frame.to_start(plan.interior.corners()), 3).tolist()
+    return {"cabinet": pose(cabinet),
             "room": {"width_m": room.width, "depth_m": room.depth, "against_wall": room.against_wall,
-                     "corners_m": corners(plan.interior)}}
+                     "corners_m": corners},
+            "cabinet_moves": [{"time_s": m.time} | pose(m.pose) for m in moves]}
 
 
 def _round(values, digits: int = 5):

@@ -198,12 +198,19 @@ def _top_view(s, report) -> str:
             x, y, yaw = step[key]
             corner = np.array([x, y]) + _rot(yaw) @ [-length / 2, -width / 2]
             ax.add_patch(patches.Rectangle(corner, length, width, angle=np.degrees(yaw), **style))
-    if room:  # the drawer in a room: the walls' inside, the cabinet, the approach path
+    if room:  # the drawer in a room: the walls' inside, the cabinet (where it stood before a goal jump), the path
         ax.add_patch(patches.Polygon(outline, fill=False, ec="0.3", lw=2.5, label="walls"))
-        ax.add_patch(patches.Polygon(np.array(cabinet["footprint_m"]), fc="burlywood", ec="saddlebrown",
-                                     label="cabinet"))
+        moves = report.get("cabinet_moves") or []
+        for k, pose in enumerate([cabinet] + moves):
+            last = k == len(moves)
+            ax.add_patch(patches.Polygon(np.array(pose["footprint_m"]), fc="burlywood" if last else "none",
+                                         ec="saddlebrown", ls="-" if last else "--",
+                                         label="cabinet" if last else "cabinet before its jump"))
     if approach:
         ax.plot(*np.array(approach["planned_path_m"]).T, "k:", marker="o", ms=3, lw=1.2, label="path planned")
+        for again in approach.get("replanned") or []:
+            ax.plot(*np.array(again["planned_path_m"]).T, "m:", marker="o", ms=3, lw=1.2,
+                    label=f"path planned again at {again['time_s']:g} s")
         ax.plot(*np.array(approach["realized_path_m"]).T, "C2", lw=1.0, label="pelvis walked")
     ax.plot(*com.T, "C0", label="CoM planned")
     ax.plot(*local(s["com"]).T, "C3", lw=0.8, label="CoM measured")

@@ -112,7 +112,7 @@ def _drawer(report: dict) -> Summary:
     slot = str(report["slot"]).replace("_", "-")
     extras = [f"{report['speed']} speed" if report.get("speed", "nominal") != "nominal" else "",
               f"{report['method']} method" if report.get("method", "ours") != "ours" else "",
-              "jumping goal" if report.get("goal_jumps") else ""]
+              "jumping goal" if report.get("goal_jumps") or report.get("cabinet_moves") else ""]
     cabinet = report.get("cabinet")
     where = (f"{_metres(report['distance_m'])} m" if cabinet is None else
              f"cabinet at ({cabinet['x_m']:g}, {cabinet['y_m']:g}) m facing {cabinet['front_yaw_deg']:g}° in a room")
