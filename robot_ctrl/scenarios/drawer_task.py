@@ -9,8 +9,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robot_ctrl.geometry.drawer_geometry import SLOTS, DrawerGeometry
 from robot_ctrl.control.commanders.approach_walk import SPEED, STOP_DISTANCE, TURN_FIRST, TURN_RATE
+from robot_ctrl.geometry.drawer_geometry import SLOTS, DrawerGeometry
 from robot_ctrl.geometry.room import Approach, CabinetMove, CabinetPose, Room, plan_approach
 from robot_ctrl.modes import BaseState, DrawerMethod, FilterMode, SpeedClass
 from robot_ctrl.synthesis.synthesizer import GoalJump
