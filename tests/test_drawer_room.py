@@ -192,6 +192,9 @@ def test_the_drawer_at_an_oblique_pose_behind_the_robot(tmp_path):
     assert approach["handover_pose"][2] in (180.0, -180.0)
     handover = approach["handover_error"]
     assert abs(handover["along_m"]) < 0.06 and abs(handover["lateral_m"]) < 0.06 and abs(handover["yaw_deg"]) < 5
+    # The feet, where the pelvis sways from: within a centimetre of the hand-over pose, facing it.
+    assert abs(handover["stance_along_m"]) < 0.01 and abs(handover["stance_lateral_m"]) < 0.01
+    assert abs(handover["stance_yaw_deg"]) < 2
     # The walked path follows the planned one, and the robot ends on the cabinet's axis, facing it.
     walked = np.array(approach["realized_path_m"])
     assert np.linalg.norm(walked[int(approach["handover_time_s"] / 0.25)] - approach["handover_pose"][:2]) < 0.08

@@ -96,7 +96,7 @@ def run_drawer(robot: RobotModel, hw: SafetyLayer, primitives: WalkReachPrimitiv
                                      "dynfilter": task.dynfilter.value, "speed": task.speed.value, "method": task.method.value,
                                      "position_feedback": task.position_feedback,
                                      "sources": "{}+{}".format(*primitives.sources)} | drawer.report(
-        run.metrics.fell, geometry, task.slot, primitives.comfort_distance) | dict(
+        run.metrics.fell, geometry, task.slot, primitives.comfort_distance, walk.footsteps) | dict(
         zmp_in_support_ratio=walk.zmp_in_support_ratio, footsteps=walk.footsteps, **walk.log.metrics(),
         dynfilter_fallbacks=controller.filter_fallbacks, push_recoveries=controller.push_recoveries,
         push_capture=capture.report()) | run.report(result, disturbances)

@@ -14,7 +14,8 @@ in the heading frame. The report (:meth:`DrawerRecorder.report`):
   ``final_pelvis_lateral_m`` and ``final_pelvis_yaw_error_deg``: its offset across the cabinet's axis
   and its heading against the cabinet's (the task's frame: the start pose, or in a room the
   hand-over pose); in a room, ``approach``: the path planned (and planned again after a goal jump)
-  and walked, when the sequence took over and the pelvis's error then against the hand-over pose;
+  and walked, when the sequence took over and the pelvis's and the stance's errors then against the
+  hand-over pose;
 - ``grasp``: ``"contact"`` once the left hand's fingers touched the handle (``"none"`` if they never
   did), ``grasp_time_s`` when; ``hand_to_handle_m``: left gripper base to the handle's grip point
   then (or its least value); ``hand_to_object_m``: right gripper base to the object's reach point
@@ -44,7 +45,7 @@ from typing import Callable
 
 import numpy as np
 
-from robot_ctrl.geometry import SIDES, base_pose_xy_yaw, relative_pose
+from robot_ctrl.geometry import SIDES, base_pose_xy_yaw, mean_yaw, relative_pose
 from robot_ctrl.geometry.drawer_geometry import DRAWER_READINGS
 from robot_ctrl.geometry.room import Approach, Box, CabinetPose, Room
 from robot_ctrl.synthesis.step_planning import Action
@@ -114,7 +115,8 @@ class DrawerRecorder:
                      dtype=np.float32).reshape(-1, 10 + self.robot.nj)
         return {"base_twist": a[:, :3], "base_pos": a[:, 3:6], "base_quat_xyzw": a[:, 6:10], "joint_q": a[:, 10:]}
 
-    def report(self, fell: bool, geometry, slot: str, comfort: float) -> dict:
+    def report(self, fell: bool, geometry, slot: str, comfort: float, footsteps: list[dict] = ()) -> dict:
+        """``footsteps``: the walk's, realized poses in the start frame (``WalkRecorder.footsteps``)."""
         c = self.commander
         plan = c.synth.plan if c.synth is not None else []
         planned = [p.length for p in plan[: max(len(c.boundaries) - 1, 0)]]
@@ -130,9 +132,9 @@ class DrawerRecorder:
                                                    for h in (c.synth.history if c.synth is not None else [])
                                                    if h.end_progress is not None]),
             hand_to_object_synth_only_m=round(self.synth_hand_error, 4),
-            replans=c.synth.replans if c.synth is not None else 0) | self._in_task_frame(a)
+            replans=c.synth.replans if c.synth is not None else 0) | self._in_task_frame(a, footsteps)
 
-    def _in_task_frame(self, a: dict[str, np.ndarray]) -> dict:
+    def _in_task_frame(self, a: dict[str, np.ndarray], footsteps) -> dict:
         """The measured pelvis against the task's frame (the cabinet's axis, facing it) at the end:
         its offset across the axis [m] and its heading error [deg]; in a room, the approach: the
         path planned and walked (start frame, every ``PATH_EVERY`` s) and the pelvis at the hand-over
@@ -162,7 +164,8 @@ class DrawerRecorder:
             handover_distance_m=round(plan.handover_distance, 4),
             handover_time_s=None if c.handed_over is None else round(c.handed_over, 3),
             handover_error=dict(along_m=_round(float(at[0]), 4), lateral_m=_round(float(at[1]), 4),
-                                yaw_deg=_round(float(np.degrees(at[2])), 2)),
+                                yaw_deg=_round(float(np.degrees(at[2])), 2)) | _stance_error(
+                footsteps, c.handed_over, plan.handover),
             realized_path_m=np.round(walked, 3).tolist())
         return out
 
@@ -236,6 +239,20 @@ def drawer_outcome(a: dict[str, np.ndarray], boundaries: list[float], planned: l
         grasp_time_s=round(float(a["t"][np.argmax(grasped)]), 3) if grasped.any() else None,
         hand_to_handle_m=round(float(at_grasp), 4), hand_to_object_m=round(hand_to_object, 4),
         peak_ankle_pitch_torque_ratio={side: round(float(r), 4) for side, r in zip(SIDES, ankle)})
+
+
+def _stance_error(footsteps, t: float | None, pose: np.ndarray) -> dict:
+    """The measured stance at time ``t`` (the midpoint of each foot's last realized footstep by then,
+    their mean yaw) against ``pose`` (start frame): ``stance_along_m``, ``stance_lateral_m``,
+    ``stance_yaw_deg``; none without both feet's footsteps. The pelvis sways over the last stance
+    foot as the robot comes to stand: the feet say where it stands."""
+    last = {step["side"]: step["realized"] for step in footsteps if t is not None and step["t"] <= t + 1e-9}
+    if len(last) < len(SIDES):
+        return {}
+    feet = np.array([last[side] for side in SIDES])
+    error = relative_pose(np.array([*feet[:, :2].mean(axis=0), mean_yaw(feet[:, 2])]), pose)
+    return dict(stance_along_m=_round(float(error[0]), 4), stance_lateral_m=_round(float(error[1]), 4),
+                stance_yaw_deg=_round(float(np.degrees(error[2])), 2))
 
 
 def drawer_criteria(report: dict) -> dict[str, bool]:
