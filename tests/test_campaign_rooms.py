@@ -134,3 +134,14 @@ def test_the_campaign_page_shows_where_each_cabinet_stood_and_why_a_trial_failed
     straight = [r | {"cabinet": None} for r in rows]
     page = render_campaign({"trials": straight, "summary": summarize(straight)}, tmp_path).read_text()
     assert page.count("data:image/png;base64,") == 4 and "Largest pelvis error" not in page
+
+
+def test_the_shipped_hard_rooms_are_ten_reachable_trials(talos):
+    """configs/trials/hard_rooms.txt, the hard poses docs/drawer.md reports: behind the robot, facing
+    sideways or away, a small room, a far corner; every one walked to by a planned path."""
+    from pathlib import Path
+
+    trials = read_trials(Path(__file__).parent.parent / "configs/trials/hard_rooms.txt", ("ours",), FilterMode.FULL)
+    reachable = _reachable(talos, None)
+    assert len(trials) == 10 and all(reachable(t) for t in trials)
+    assert sum(t.free_standing for t in trials) == 3 and {t.room for t in trials} == {(6.0, 6.0), (5.0, 5.0), (8.0, 8.0)}

@@ -16,7 +16,8 @@ def test_the_wheel_carries_every_subpackage_the_configs_and_the_models(tmp_path)
     for folder in sorted(p.parent for p in (ROOT / "robot_ctrl").rglob("*.py")):
         module = folder.relative_to(ROOT).as_posix()
         assert any(n.startswith(module + "/") for n in names), f"{module} is missing from the wheel (pyproject packages)"
-    for data in ("configs/robots/talos.yaml", "configs/hw/talos_mit_can.yaml", "models/talos_walk_reach_demos.npz",
+    for data in ("configs/robots/talos.yaml", "configs/hw/talos_mit_can.yaml", "configs/trials/hard_rooms.txt",
+                 "models/talos_walk_reach_demos.npz",
                  "models/talos_gait_profile.json", "sim/floor.xml"):
         assert f"robot_ctrl/_data/{data}" in names
     # Installed from the wheel (dependencies from this environment), run from another folder.
