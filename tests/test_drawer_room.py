@@ -114,7 +114,7 @@ def test_a_cabinet_on_the_robot_is_refused():
                                                        "walks round to (--cabinet)"),
     (["--cabinet=-2.5,1.0,0", "--goal-jump", "3:2.5,1"], "--goal-jump '3:2.5,1' must be TIME:X,Y,YAW_DEG in a room"),
     (["--cabinet=-2.5,1.0,0", "--goal-jump", "30:-2.5,-0.8,0"],
-     "--goal-jump time = 30 s is outside the allowed range (0, 9.2] s (while the robot surely still walks"),
+     "--goal-jump time = 30 s is outside the allowed range (0, 9.1] s (while the robot surely still walks"),
     (["--cabinet=-2.5,1.0,0", "--goal-jump", "2:-1.2,0.4,0"],
      "--goal-jump pose = -1.2,0.4,0: the cabinet would land on the robot's path"),
     (["--cabinet=-2.5,1.0,0", "--goal-jump", "2:-2.5,-2.8,0"],

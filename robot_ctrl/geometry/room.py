@@ -48,6 +48,10 @@ class CabinetPose:
     y: float
     front_yaw: float
 
+    def __str__(self) -> str:
+        """As the command line gives it: X,Y,YAW_DEG."""
+        return f"{self.x:g},{self.y:g},{np.degrees(self.front_yaw):g}"
+
     @property
     def yaw(self) -> float:
         """Heading of the cabinet frame's x axis (into the cabinet) [rad]."""
@@ -280,3 +284,14 @@ def plan_approach(cabinet: CabinetPose, footprint: Box, room: Room, radius: floa
     waypoints[0] = start
     return Approach(waypoints, handover_pose(cabinet, handover_distance), handover_distance,
                     room_walls(placed.interior, placed.frame), placed)
+
+
+def check_move(first: Approach, pose: CabinetPose, footprint: Box, radius: float) -> Approach:
+    """The approach from the start to the cabinet moved to ``pose`` inside the room that ``first``
+    placed: what a goal jump must allow, the cabinet (grown by ``radius``) off the path walked to it
+    first, inside the room, with a way to its front. ValueError saying why not."""
+    path = pose.from_start(first.waypoints)
+    grown = footprint.grown(radius)
+    if any(grown.contains(a) or grown.crosses(a, b) for a, b in zip(path, path[1:])):
+        raise ValueError(f"the cabinet would land on the robot's path (it needs {radius:.2f} m round it)")
+    return plan_approach(pose, footprint, Room(), radius, first.handover_distance, placed=first.room)

@@ -1,17 +1,14 @@
 """DrawerTask: what a user asks of the drawer scenario (where the cabinet stands, which slot holds
 the object, the cabinet's jumps, the speed class, the dynamic filter, the control period, how the
-base is seen), and
-its check against what the learned primitives can do."""
+base is seen), and its check against what the learned primitives can do."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
-
-from robot_ctrl.control.commanders.approach_walk import SPEED, STOP_DISTANCE, TURN_FIRST, TURN_RATE
+from robot_ctrl.control.commanders.approach_walk import surely_walking_until
 from robot_ctrl.geometry.drawer_geometry import SLOTS, DrawerGeometry
-from robot_ctrl.geometry.room import Approach, CabinetMove, CabinetPose, Room, plan_approach
+from robot_ctrl.geometry.room import Approach, CabinetMove, CabinetPose, Room, check_move, plan_approach
 from robot_ctrl.modes import BaseState, DrawerMethod, FilterMode, SpeedClass
 from robot_ctrl.synthesis.synthesizer import GoalJump
 
@@ -54,7 +51,7 @@ class DrawerTask:
             return plan_approach(c, geometry.footprint(), self.room, geometry.body_radius,
                                  comfort + geometry.handover_walk)
         except ValueError as exc:
-            raise ValueError(f"cabinet = {_pose_text(c)}: {exc}") from exc
+            raise ValueError(f"cabinet = {c}: {exc}") from exc
 
     def replanner(self, first: Approach, geometry: DrawerGeometry):
         """``replan(pose, xy)``: the approach from the start-frame point ``xy`` to the cabinet moved
@@ -65,11 +62,9 @@ class DrawerTask:
         return replan
 
     def move_approaches(self, comfort: float, geometry: DrawerGeometry) -> list[Approach]:
-        """Each goal jump's approach from the start, as if the cabinet had stood there from the first
-        (what :meth:`check` requires of a jump, and what bounds how long the walk may take)."""
+        """Each goal jump's approach from the start (``check_move``): what bounds the walk's time."""
         first = self.approach(comfort, geometry)
-        replan = self.replanner(first, geometry)
-        return [replan(m.pose, (0.0, 0.0)) for m in self.moves]
+        return [check_move(first, m.pose, geometry.footprint(), geometry.body_radius) for m in self.moves]
 
     def check(self, comfort: float, shortest: float, geometry: DrawerGeometry | None = None) -> None:
         """Raise ValueError naming the setting and its allowed range (a cabinet straight ahead in a
@@ -92,7 +87,7 @@ class DrawerTask:
             self._check_moves(first, geometry)
             return
         if self.moves:
-            raise ValueError(f"goal jump pose = {_pose_text(self.moves[0].pose)}: a pose moves a cabinet the robot "
+            raise ValueError(f"goal jump pose = {self.moves[0].pose}: a pose moves a cabinet the robot "
                              "walks round to (--cabinet); one straight ahead, facing it, jumps along its axis "
                              "(TIME:DISTANCE)")
         for name, d in [("distance", self.distance)] + [("goal jump distance", j.distance) for j in self.jumps]:
@@ -108,34 +103,17 @@ class DrawerTask:
             before = j.distance
 
     def _check_moves(self, first: Approach, geometry: DrawerGeometry) -> None:
-        """One goal jump at most in a room, while the robot surely still walks its approach (before
-        it could have turned to the path's first stretch at ``TURN_RATE`` and walked the path to where
-        it stops at ``SPEED``), to a pose it can walk to from where it may be: off the path it walked,
-        reachable inside the room as it stands."""
+        """One goal jump at most in a room, while the robot surely still walks its approach, to a pose
+        it can walk to from where it may be (``check_move``)."""
         if len(self.moves) > 1:
-            raise ValueError(f"goal jump pose = {_pose_text(self.moves[1].pose)}: a cabinet in a room moves once "
+            raise ValueError(f"goal jump pose = {self.moves[1].pose}: a cabinet in a room moves once "
                              f"({len(self.moves)} jumps)")
-        d = first.waypoints[1] - first.waypoints[0]
-        turn = abs(float(np.arctan2(d[1], d[0])))  # the start heading is the start frame's x
-        latest = round(max(first.length - STOP_DISTANCE, 0.0) / SPEED + max(turn - TURN_FIRST, 0.0) / TURN_RATE, 1)
-        replan = self.replanner(first, geometry)
-        grown = geometry.footprint().grown(geometry.body_radius)
+        latest = surely_walking_until(first)
         for move in self.moves:
             if not 0 < move.time <= latest:
                 raise ValueError(f"goal jump time = {move.time:g} s is outside the allowed range (0, {latest:g}] s "
                                  "(while the robot surely still walks its approach)")
-            p = move.pose
-            where = f"goal jump pose = {_pose_text(p)}"
-            path = p.from_start(first.waypoints)
-            if any(grown.contains(a) or grown.crosses(a, b) for a, b in zip(path, path[1:])):
-                raise ValueError(f"{where}: the cabinet would land on the robot's path "
-                                 f"(it needs {geometry.body_radius:.2f} m round it)")
             try:
-                replan(p, (0.0, 0.0))
+                check_move(first, move.pose, geometry.footprint(), geometry.body_radius)
             except ValueError as exc:
-                raise ValueError(f"{where}: {exc}") from exc
-
-
-def _pose_text(pose: CabinetPose) -> str:
-    """A cabinet pose as the command line gives it: X,Y,YAW_DEG."""
-    return f"{pose.x:g},{pose.y:g},{np.degrees(pose.front_yaw):g}"
+                raise ValueError(f"goal jump pose = {move.pose}: {exc}") from exc

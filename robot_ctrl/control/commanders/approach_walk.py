@@ -34,6 +34,17 @@ PASSED = 0.12  # [m] a corner this near is passed: on to the next
 STOP_DISTANCE = 0.3  # [m] from the hand-over pose: stop there with both feet
 
 
+def surely_walking_until(approach: Approach) -> float:
+    """The latest time [s] (down to 0.1 s) at which a robot that set off from standing at the start
+    of ``approach`` (facing the start frame's x) surely still walks it: it cannot have turned to its
+    first stretch (beyond ``TURN_FIRST``) at ``TURN_RATE`` and walked to ``STOP_DISTANCE`` before its
+    end at ``SPEED`` any sooner."""
+    d = approach.waypoints[1] - approach.waypoints[0]
+    turn = abs(float(np.arctan2(d[1], d[0])))
+    t = max(approach.length - STOP_DISTANCE, 0.0) / SPEED + max(turn - TURN_FIRST, 0.0) / TURN_RATE
+    return float(np.floor(t * 10.0 + 1e-9) / 10.0)
+
+
 class ApproachWalk:
     def __init__(self, controller: WalkingController, approach: Approach, start_pose: Callable[[], np.ndarray],
                  log: Callable[[str], None] = print, moves: tuple[CabinetMove, ...] = (),
