@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robot_ctrl.geometry import PlanarMove, Side, left_sign, other, rotation
+from robot_ctrl.geometry import SIDES, PlanarMove, Side, left_sign, other, rotation
 
 
 @dataclass(frozen=True)
@@ -27,6 +27,12 @@ class Footstep:
         """This footstep moved rigidly in the plane (world frame)."""
         x, y = move.point(self.xy)
         return Footstep(self.side, float(x), float(y), self.yaw + move.turn)
+
+
+def stance_at(pose, feet_offset: dict[Side, np.ndarray]) -> tuple[Footstep, ...]:
+    """Both feet (in ``SIDES`` order) round the planar ``pose`` (x, y, yaw; world), each at its
+    ``feet_offset`` (x, y) [m] in the pose's frame, turned as the pose is: where a robot stops."""
+    return tuple(Footstep(s, *(pose[:2] + rotation(pose[2]) @ feet_offset[s]), float(pose[2])) for s in SIDES)
 
 
 @dataclass(frozen=True)

@@ -20,9 +20,9 @@ from typing import Callable
 import numpy as np
 
 from robot_ctrl.control.controllers.walking_controller import PlanSample, WalkingController
-from robot_ctrl.geometry import SIDES, absolute_pose, rotation, wrap_angle
+from robot_ctrl.geometry import absolute_pose, rotation, wrap_angle
 from robot_ctrl.geometry.room import Approach, CabinetMove, CabinetPose
-from robot_ctrl.wpg.footstep import Footstep
+from robot_ctrl.wpg.footstep import stance_at
 
 SPEED = 0.3  # [m/s] walking the straight stretches
 TURN_RATE = 0.3  # [rad/s] at most, on the spot or walking
@@ -92,8 +92,7 @@ class ApproachWalk:
         distance = float(np.linalg.norm(to_corner))
         if self.corner == last and distance < STOP_DISTANCE:
             goal = self.handover
-            c.stop_at(*(Footstep(s, *(goal[:2] + rotation(goal[2]) @ self.feet_offset[s]), float(goal[2]))
-                        for s in SIDES))
+            c.stop_at(*stance_at(goal, self.feet_offset))
             self.stopping = True
             self.log(f"t = {sample.t:6.2f} s  approach: stopping at the hand-over pose, "
                      f"{self.approach.handover_distance:.2f} m in front of the cabinet")

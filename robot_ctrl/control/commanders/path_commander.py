@@ -13,8 +13,8 @@ import numpy as np
 
 from robot_ctrl.control.commanders.path_follower import PathFollower, WalkGoal
 from robot_ctrl.control.controllers.walking_controller import PlanSample, WalkingController
-from robot_ctrl.geometry import SIDES, rotation
-from robot_ctrl.wpg.footstep import Footstep
+from robot_ctrl.geometry import rotation
+from robot_ctrl.wpg.footstep import stance_at
 
 
 class PathCommander:
@@ -58,8 +58,7 @@ class PathCommander:
         velocity = self.follower.velocity(sample.t, planned_base)
         if self.follower.done and not was_done:
             goal = self.goal_base
-            self.controller.stop_at(*(Footstep(s, *(goal[:2] + rotation(goal[2]) @ self.feet_offset[s]), float(goal[2]))
-                                      for s in SIDES))
+            self.controller.stop_at(*stance_at(goal, self.feet_offset))
             self.log(f"t = {sample.t:6.2f} s  path done, stopping at the goal")
         elif not self.follower.done:
             self.controller.set_velocity(*velocity)

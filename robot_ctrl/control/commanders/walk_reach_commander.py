@@ -46,7 +46,7 @@ from robot_ctrl.kernels import FLOAT, MATRIX, VECTOR, kernel
 from robot_ctrl.synthesis.primitives import WalkReachPrimitives
 from robot_ctrl.synthesis.step_planning import BETA, Action
 from robot_ctrl.synthesis.synthesizer import SynthesisOutput, SynthesisPreview, Synthesizer, WalkReachGoal
-from robot_ctrl.wpg.footstep import Footstep
+from robot_ctrl.wpg.footstep import stance_at
 
 POSITION_GAIN = 2.5  # [1/s] feedback of the planned pelvis's lag behind the synthesized advance
 WALK_IN_STEPS = 2  # the synthesis starts at this touch-down, the gait at its steady speed
@@ -317,10 +317,7 @@ class WalkReachCommander:
         self._stance_shift = float(np.clip(final @ forward * STANCE_SHARE, 0.0, MAX_STANCE_SHIFT))
         self.stopping_at = target
         ahead = target + self._stance_shift
-        start = self.targets.start
-        heading = rotation(start[2])
-        c.stop_at(*(Footstep(s, *(start[:2] + heading @ (self.feet_offset[s] + [ahead, 0.0])), float(start[2]))
-                    for s in SIDES))
+        c.stop_at(*stance_at(self.targets.start, {s: self.feet_offset[s] + [ahead, 0.0] for s in SIDES}))
         self.log(f"t = {t:6.2f} s  last short cycle: stopping with the pelvis {target:.3f} m from the start "
                  f"(feet {self._stance_shift * 100:.1f} cm ahead of it for the reach)")
 
