@@ -110,7 +110,8 @@ REPORT = {"success": True, "fell": False, "fall_time_s": None, "step_length_erro
 
 def test_a_failed_trial_says_why():
     assert failure_cause(REPORT) is None
-    assert failure_cause(REPORT | {"success": False, "fell": True, "fall_time_s": 6.25}) == "fell at 6.25 s on the approach"
+    fell_early = REPORT | {"success": False, "fell": True, "fall_time_s": 6.25}
+    assert failure_cause(fell_early) == "fell at 6.25 s on the approach"
     assert failure_cause(REPORT | {"success": False, "fell": True, "fall_time_s": 18.0}) == "fell at 18.00 s"
     missed = REPORT | {"success": False, "drawer_opening_m": 0.2, "hand_to_object_m": 0.05}
     assert failure_cause(missed) == "not drawer opened, not object reached"
@@ -144,4 +145,5 @@ def test_the_shipped_hard_rooms_are_ten_reachable_trials(talos):
     trials = read_trials(Path(__file__).parent.parent / "configs/trials/hard_rooms.txt", ("ours",), FilterMode.FULL)
     reachable = _reachable(talos, None)
     assert len(trials) == 10 and all(reachable(t) for t in trials)
-    assert sum(t.free_standing for t in trials) == 3 and {t.room for t in trials} == {(6.0, 6.0), (5.0, 5.0), (8.0, 8.0)}
+    assert sum(t.free_standing for t in trials) == 3
+    assert {t.room for t in trials} == {(6.0, 6.0), (5.0, 5.0), (8.0, 8.0)}

@@ -48,7 +48,8 @@ def _campaign(args: argparse.Namespace) -> int:
                       dataset=campaign.method_dataset(t.method, dataset, robot.name))
               for k, (t, (first, extra)) in enumerate((t, s) for t in trials for s in sources)]
     for demos, naive in sorted({(t.dataset, t.method == "naive") for t in trials}, key=str):  # each set, checked once
-        tasks = {f"campaign: trial {t.id}": _task(t) for t in trials if (t.dataset, t.method == "naive") == (demos, naive)}
+        tasks = {f"campaign: trial {t.id}": _task(t) for t in trials
+                 if (t.dataset, t.method == "naive") == (demos, naive)}
         check_drawer_tasks(tasks, robot, dataset=None if demos is None else Path(demos), whole_body=naive)
     check_out_folder(args)
     backend = backend_of(args, "campaign")
@@ -108,7 +109,8 @@ def add_parsers(sub, robot) -> None:
     p = sub.add_parser("campaign", parents=[robot],
                        help="many drawer trials in parallel, locally or on a Ray cluster (resumable)",
                        description="Runs drawer trials (from --trials FILE, or --n drawn at random with --seed at new "
-                                   "distances or, with --poses random, anywhere in random rooms), each in its own processes, --jobs at a time, and writes "
+                                   "distances or, with --poses random, anywhere in random rooms), each in its own "
+                                   "processes, --jobs at a time, and writes "
                                    "DIR/campaign.json (a row per trial, a summary per method and speed class), "
                                    "DIR/campaign.html and each trial's report under DIR/trials/. Rerunning the same "
                                    "command finishes the trials a kill left undone. Exit status 1 if a trial fell or "

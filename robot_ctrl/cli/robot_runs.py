@@ -77,10 +77,10 @@ def _walk(args: argparse.Namespace) -> int:
 
 
 def _drawer(args: argparse.Namespace) -> int:
+    from robot_ctrl.geometry.room import handover_pose
     from robot_ctrl.robot.model import load_robot
     from robot_ctrl.scenarios.drawer import run_drawer
     from robot_ctrl.scenarios.drawer_task import DrawerTask
-    from robot_ctrl.geometry.room import handover_pose
     from robot_ctrl.sim.drawer_cabinet import DrawerPlacement
     from robot_ctrl.synthesis.learned import load_primitives
     from robot_ctrl.synthesis.synthesizer import SynthesisError

@@ -37,10 +37,10 @@ SLOTS = ("front_left", "front_right", "back_left", "back_right")
 _MASS_LIKE = ("drawer_mass", "object_mass", "slide_damping", "slide_friction")
 
 
-def cabinet_distance(distance: float, jumps, t: float) -> float:
-    """The cabinet's distance [m] at time ``t`` [s]: ``distance`` until the last of the ``jumps``
-    ((time [s], new distance [m]) pairs) at or before ``t``."""
-    return next((d for t0, d in sorted(jumps, reverse=True) if t >= t0 - 1e-9), distance)
+def scheduled_at(first, jumps, t: float):
+    """Where a goal jumping at times stands at time ``t`` [s] (the cabinet's distance [m], or its
+    frame): ``first`` until the last of the ``jumps`` ((time [s], new value) pairs) at or before ``t``."""
+    return next((v for t0, v in sorted(jumps, reverse=True) if t >= t0 - 1e-9), first)
 
 
 @dataclass(frozen=True)

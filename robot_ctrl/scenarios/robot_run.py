@@ -68,7 +68,8 @@ class RobotRun:
         # what the servos delivered after it.
         safety["demanded_peak_torque_ratio"] = dict(zip(self.robot.joint_names, safety["demanded_peak_torque_ratio"]))
         report = dict(**self.view.report(), safety=safety, disturbances=disturbances.to_dict(),
-                      stop_reason=result.stop_reason, rtf=round(result.rtf, 3), control_rate_hz=round(1.0 / result.dt, 3))
+                      stop_reason=result.stop_reason, rtf=round(result.rtf, 3),
+                      control_rate_hz=round(1.0 / result.dt, 3))
         if self.pacer is not None:
             report["timing"] = self.pacer.report()
         return report

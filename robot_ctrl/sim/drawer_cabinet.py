@@ -29,7 +29,7 @@ import numpy as np
 
 from robot_ctrl import __version__
 from robot_ctrl.geometry import Side, absolute_pose, other
-from robot_ctrl.geometry.drawer_geometry import DRAWER_READINGS, SLOTS, DrawerGeometry, cabinet_distance
+from robot_ctrl.geometry.drawer_geometry import DRAWER_READINGS, SLOTS, DrawerGeometry, scheduled_at
 from robot_ctrl.geometry.room import WALL_THICKNESS, Wall
 from robot_ctrl.sim.contacts import geoms_of_bodies, robot_contacts, subtree
 
@@ -47,8 +47,9 @@ class DrawerPlacement:
     """Where the cabinet stands: its closed drawer's front panel ``distance`` [m] ahead of the
     robot's start pelvis along the start heading (in a room: ahead of ``frame``, the pose where the
     synthesis takes over, in the start frame); ``jumps``: (time [s], new distance [m]) at which
-    it is moved (thesis Fig. 3.39), in a room ``moves``: (time [s], new frame); ``slot``: the object the right hand reaches for; ``geometry``:
-    the cabinet, by default the robot's (its config's ``drawer:``)."""
+    it is moved (thesis Fig. 3.39), in a room ``moves``: (time [s], new frame); ``slot``: the
+    object the right hand reaches for; ``geometry``: the cabinet, by default the robot's (its
+    config's ``drawer:``)."""
 
     distance: float
     slot: str = "front_left"
@@ -59,10 +60,10 @@ class DrawerPlacement:
     moves: tuple[tuple[float, tuple[float, float, float]], ...] = ()  # in a room: (time [s], the frame from then on)
 
     def distance_at(self, t: float) -> float:
-        return cabinet_distance(self.distance, self.jumps, t)
+        return scheduled_at(self.distance, self.jumps, t)
 
     def frame_at(self, t: float) -> tuple[float, float, float]:
-        return next((f for t0, f in sorted(self.moves, reverse=True) if t >= t0 - 1e-9), self.frame)
+        return scheduled_at(self.frame, self.moves, t)
 
     # The prop interface (``sim/prop.py``) ------------------------------------------------------
     def scene_mjcf(self, robot: RobotModel) -> Path:

@@ -14,7 +14,7 @@ from typing import Callable
 import numpy as np
 
 from robot_ctrl.geometry import rotation
-from robot_ctrl.geometry.drawer_geometry import DrawerGeometry, cabinet_distance
+from robot_ctrl.geometry.drawer_geometry import DrawerGeometry, scheduled_at
 from robot_ctrl.synthesis.synthesizer import GoalJump
 
 
@@ -39,7 +39,7 @@ class DrawerTargets:
 
     def distance(self, t: float) -> float:
         """The front panel's distance from the start pelvis at time ``t`` [s]."""
-        return cabinet_distance(self.distance0, [(j.time, j.distance) for j in self.jumps], t)
+        return scheduled_at(self.distance0, [(j.time, j.distance) for j in self.jumps], t)
 
     def world(self, x: float, y: float, z: float) -> np.ndarray:
         """A point of the start frame (x along the heading, y left, z above the floor) in the world."""

@@ -126,7 +126,8 @@ def _drawer(report: dict) -> Summary:
     opened = None if opening is None or required is None else met["drawer opened"]
     figures = [
         KeyFigure("Drawer opening", "–" if opening is None else f"{opening * 100:.1f} cm",
-                  "" if required is None else f"≥ {OPENED_SHARE:.0%} of {required * 100:.0f} cm (the hand's clearance)",
+                  "" if required is None
+                  else f"≥ {OPENED_SHARE:.0%} of {required * 100:.0f} cm (the hand's clearance)",
                   opened, "drawer_opening_m"),
         KeyFigure("Right hand to the object", "–" if hand is None else quantity(hand, "m"),
                   f"≤ {OBJECT_TOLERANCE * 1000:.0f} mm", None if hand is None else met["object reached"],
