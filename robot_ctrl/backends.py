@@ -85,34 +85,53 @@ def open_hardware(kind: HardwareKind | str, robot: RobotModel, bus_config: str |
             hw.close()
         return
     plant = MujocoBackend(robot, control_dt, viewer=viewer, video=video, disturbances=disturbances, prop=prop)
-    if kind is HardwareKind.MIT_CAN_EMULATED:
-        from robot_ctrl.buses.mit_can_backend import MitCanBackend
+    with emulated_drives(kind, robot, plant, bus_config, reply_loss=disturbances.reply_loss) as (emulator, config):
+        _say_what_holds(config)
+        if kind is HardwareKind.MIT_CAN_EMULATED:
+            from robot_ctrl.buses.mit_can_backend import MitCanBackend
+
+            backend = MitCanBackend(config, robot.kd, body_sensors=emulator.body_state)
+        else:
+            from robot_ctrl.buses.dynamixel_backend import DynamixelBackend
+
+            config = dataclasses.replace(config, buses={name: dict(port, device=emulator.port_names[name])
+                                                        for name, port in config.buses.items()})
+            backend = DynamixelBackend(config, robot.kd, body_sensors=emulator.body_state, effort=robot.effort,
+                                       velocity=robot.velocity_limit)
+        hw = SafetyLayer(backend, limits, clock=emulator.clock)
+        hw.start_watchdog()  # a bus has no lock-step: a stalled controller must be caught from outside
+        try:
+            yield hw
+        finally:
+            hw.close()
+
+
+@contextmanager
+def emulated_drives(kind: HardwareKind | str, robot: RobotModel, plant, bus_config: str | None = None,
+                    reply_loss: float = 0.0, free_running: float | None = None):
+    """The emulated drives of the bus config (default ``configs/hw/<robot>_mit_can`` or
+    ``_dynamixel``) driving ``plant``, started before the block and stopped after it; yields the
+    emulator and its bus config. ``kind``: an MIT-CAN or Dynamixel kind, emulated or real (what the
+    drives stand in for); ``free_running``: for a controller in another process, the plant's period
+    on the wall clock (not lock-step), with Dynamixel ports at the devices the config names."""
+    kind = HardwareKind.parse(kind)
+    if kind in (HardwareKind.MIT_CAN, HardwareKind.MIT_CAN_EMULATED):
         from robot_ctrl.buses.mit_can_emulator import MitCanEmulator
 
         config = _bus_config(kind, bus_config or f"{robot.name}_mit_can", robot)
-        _say_what_holds(config)
-        emulator = MitCanEmulator(config, plant)
-        emulator.drop_probability = disturbances.reply_loss
-        emulator.start()
-        backend = MitCanBackend(config, robot.kd, body_sensors=emulator.body_state)
-    else:
-        from robot_ctrl.buses.dynamixel_backend import DynamixelBackend
+        emulator = MitCanEmulator(config, plant, period=free_running)
+        emulator.drop_probability = reply_loss
+    elif kind in (HardwareKind.DYNAMIXEL, HardwareKind.DYNAMIXEL_EMULATED):
         from robot_ctrl.buses.dynamixel_emulator import DynamixelEmulator
 
         config = _bus_config(kind, bus_config or f"{robot.name}_dynamixel", robot)
-        _say_what_holds(config)
-        emulator = DynamixelEmulator(config, plant)
-        emulator.start()
-        config = dataclasses.replace(config, buses={name: dict(port, device=emulator.port_names[name])
-                                                    for name, port in config.buses.items()})
-        backend = DynamixelBackend(config, robot.kd, body_sensors=emulator.body_state, effort=robot.effort,
-                                   velocity=robot.velocity_limit)
-    hw = SafetyLayer(backend, limits, clock=emulator.clock)
-    hw.start_watchdog()  # a bus has no lock-step: a stalled controller must be caught from outside
+        emulator = DynamixelEmulator(config, plant, link_devices=free_running is not None, period=free_running)
+    else:
+        raise ValueError(f"--hw {kind.value} has no servo bus to emulate (mit-can or dynamixel)")
     try:
-        yield hw
+        emulator.start()
+        yield emulator, config
     finally:
-        hw.close()
         emulator.close()
 
 

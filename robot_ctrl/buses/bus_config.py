@@ -54,8 +54,10 @@ HW_CONFIGS = ROOT / "configs" / "hw"
 
 
 def shipped_bus_configs() -> str:
-    """The bus configs shipped in ``configs/hw/``, for messages that suggest a starting point."""
-    return " or ".join(f"configs/hw/{p.name}" for p in sorted(HW_CONFIGS.glob("*.yaml")))
+    """The bus configs shipped in ``configs/hw/`` to start a robot's from, for messages that suggest
+    one (not the ``*_emulated`` ones, for drives that ``robot-ctrl hw emulate`` serves)."""
+    return " or ".join(f"configs/hw/{p.name}" for p in sorted(HW_CONFIGS.glob("*.yaml"))
+                       if not p.stem.endswith("_emulated"))
 BACKENDS = ("mit_can", "dynamixel")
 
 

@@ -84,13 +84,9 @@ def crc16(data: bytes) -> int:
 
 
 def stuff(body: bytes) -> bytes:
-    """Insert 0xFD after every FF FF FD in the instruction and parameters."""
-    out = bytearray()
-    for byte in body:
-        out.append(byte)
-        if len(out) >= 3 and out[-3:] == b"\xff\xff\xfd":
-            out.append(0xFD)
-    return bytes(out)
+    """Insert 0xFD after every FF FF FD in the instruction and parameters (the pattern cannot
+    overlap itself, so one left-to-right replace is the byte-by-byte rule)."""
+    return bytes(body).replace(b"\xff\xff\xfd", b"\xff\xff\xfd\xfd")
 
 
 def unstuff(body: bytes) -> bytes:

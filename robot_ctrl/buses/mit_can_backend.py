@@ -29,11 +29,17 @@ Reply formats (``mit_protocol``, per motor model): 6-byte mini-cheetah replies c
 temperature or fault; CubeMars and Damiao 8-byte replies do. The state's ``temperature`` is
 reported when every motor's format carries one. A fault code, or a Damiao drive that says it is
 disabled while it should be enabled (its CAN timeout expired, say), raises naming the joint.
+
+A bus on an interface that hands a sender its own frames back (python-can's ``udp_multicast``, the
+bus between processes that ``robot-ctrl hw emulate`` serves: ``ECHOING_INTERFACES``) has each frame
+this backend sent recognized when it comes back and set aside: it is neither a reply nor a foreign
+frame, and a register frame's echo never confirms its own write.
 """
 
 from __future__ import annotations
 
 import time
+from collections import deque
 from typing import Callable
 
 import can
@@ -66,6 +72,9 @@ from robot_ctrl.robot.config import ConfigError
 REPLY_GAP = 0.002
 #: [s] how long ``configure`` waits for the drives to answer a register read or write
 PARAM_WAIT = 0.1
+#: python-can interfaces on which a bus hears its own frames (udp_multicast: every socket on the group
+#: hears every datagram, and receive_own_messages cannot be turned off there)
+ECHOING_INTERFACES = ("udp_multicast",)
 
 
 class MitCanBackend(HardwareAdapter):
@@ -91,6 +100,8 @@ class MitCanBackend(HardwareAdapter):
                               "their last stiff command. Use drives with one (reply: damiao, drive_timeout_s), or "
                               "name each such joint under without_drive_timeout: {why: ..., joints: [...]}")
         self._buses: dict[str, can.BusABC] = {}
+        #: per echoing bus, the (CAN id, data) of the frames sent whose echo has not come back yet
+        self._echoes: dict[str, deque[tuple[int, bytes]]] = {}
         self._p = np.zeros(self.nj)  # motor side
         self._v = np.zeros(self.nj)
         self._t = np.zeros(self.nj)
@@ -105,6 +116,8 @@ class MitCanBackend(HardwareAdapter):
         self._t0 = self.clock()  # the state's time counts from here
         for name, options in self.config.buses.items():
             self._buses[name] = can.Bus(**options)
+            if options.get("interface") in ECHOING_INTERFACES:
+                self._echoes[name] = deque(maxlen=1024)
         self._set_drive_timeouts()
 
     @property
@@ -127,8 +140,7 @@ class MitCanBackend(HardwareAdapter):
         for op in (PARAM_WRITE, PARAM_READ):
             for i in motors:
                 m = self.config.motors[i]
-                self._buses[m.bus].send(can.Message(arbitration_id=PARAM_CAN_ID, is_extended_id=False,
-                                                    data=param_frame(m.id, op, TIMEOUT_REGISTER, counts)))
+                self._send(m.bus, PARAM_CAN_ID, param_frame(m.id, op, TIMEOUT_REGISTER, counts))
             confirmed = self._collect_params(motors, op, counts)
         unconfirmed = np.zeros(self.nj, dtype=bool)
         unconfirmed[[i for i in motors if i not in confirmed]] = True
@@ -144,7 +156,9 @@ class MitCanBackend(HardwareAdapter):
             expected = {i for i in motors if self.config.motors[i].bus == name}
             while expected - confirmed and (remaining := deadline - time.monotonic()) > 0:
                 msg = bus.recv(timeout=remaining)
-                answer = None if msg is None else unpack_param(bytes(msg.data))
+                if msg is None or self._echo(name, msg) or msg.arbitration_id != HOST_ID:
+                    continue  # a drive answers on the host's id
+                answer = unpack_param(bytes(msg.data))
                 if answer is None:
                     continue
                 i = self._index.get((name, answer[0]))
@@ -199,6 +213,7 @@ class MitCanBackend(HardwareAdapter):
         for bus in self._buses.values():
             bus.shutdown()
         self._buses.clear()
+        self._echoes.clear()
 
     def zero_motor(self, joint: str) -> None:
         """Make the motor of ``joint`` take its current position as zero (writes its encoder offset)."""
@@ -244,9 +259,10 @@ class MitCanBackend(HardwareAdapter):
     def _drain(self) -> None:
         """Drop the frames that came after the last wait ended: read as this tick's replies, they
         would keep a motor a tick behind for good (``late_replies`` counts them)."""
-        for bus in self._buses.values():
-            while bus.recv(timeout=0.0) is not None:
-                self.late_replies += 1
+        for name, bus in self._buses.items():
+            while (msg := bus.recv(timeout=0.0)) is not None:
+                if not self._echo(name, msg):
+                    self.late_replies += 1
 
     def _joints(self, mask: np.ndarray) -> str:
         return ", ".join(self.config.motors[i].joint for i in np.flatnonzero(mask))
@@ -268,10 +284,29 @@ class MitCanBackend(HardwareAdapter):
             if m.bus in failed:
                 continue
             try:
-                self._buses[m.bus].send(can.Message(arbitration_id=m.id, data=data, is_extended_id=False))
+                self._send(m.bus, m.id, data)
             except (can.CanError, OSError) as exc:
                 failed[m.bus] = f"{type(exc).__name__}: {exc}"
         return failed
+
+    def _send(self, bus: str, can_id: int, data: bytes) -> None:
+        self._buses[bus].send(can.Message(arbitration_id=can_id, data=data, is_extended_id=False))
+        if bus in self._echoes:
+            self._echoes[bus].append((can_id, bytes(data)))
+
+    def _echo(self, bus: str, msg: can.Message) -> bool:
+        """Whether ``msg`` is a frame this backend sent on ``bus``, come back (then set aside)."""
+        sent = self._echoes.get(bus)
+        if not sent:
+            return False
+        frame = (msg.arbitration_id, bytes(msg.data))
+        try:
+            k = sent.index(frame)
+        except ValueError:
+            return False
+        for _ in range(k + 1):  # echoes come back in the order sent; any before it were lost
+            sent.popleft()
+        return True
 
     def _raise_failed(self, failed: dict[str, str]) -> None:
         if failed:
@@ -304,6 +339,8 @@ class MitCanBackend(HardwareAdapter):
                     break
                 if msg is None:
                     break
+                if self._echo(name, msg):
+                    continue
                 bus_deadline = deadline if gap is None else min(deadline, self.clock() + gap)
                 if msg.is_error_frame:
                     self.error_frames += 1

@@ -128,18 +128,21 @@ def log_line(line: str) -> None:
 
 def check_log_path(args: argparse.Namespace) -> None:
     """Refuse a ``--log`` that cannot be written, before anything runs."""
-    path = getattr(args, "log", None)
-    if path is None:
-        return
+    if getattr(args, "log", None) is not None:
+        check_out_file(args.log, "--log")
+
+
+def check_out_file(path: Path, option: str) -> None:
+    """Refuse an output file ``path`` (given as ``option``) that cannot be written, before anything runs."""
     folder = path.parent if str(path.parent) else Path(".")
     if path.is_dir():
-        raise ConfigError(f"--log {path} is a folder: give a file name")
+        raise ConfigError(f"{option} {path} is a folder: give a file name")
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise ConfigError(f"--log {path}: cannot create {folder} ({exc.strerror})") from exc
+        raise ConfigError(f"{option} {path}: cannot create {folder} ({exc.strerror})") from exc
     if not os.access(folder, os.W_OK):
-        raise ConfigError(f"--log {path}: {folder} is not writable")
+        raise ConfigError(f"{option} {path}: {folder} is not writable")
 
 
 def check_out_folder(args: argparse.Namespace) -> None:
