@@ -115,6 +115,9 @@ def test_bus_config_errors_name_the_joint_and_field(talos, tmp_path):
     bad.write_text(text.replace("reply_timeout_s: 0.05", "reply_timeout_s: 0.05\ndrive_timeout_s: 0"))
     with pytest.raises(ConfigError, match=r"drive_timeout_s = 0 is outside the allowed range \[0.001, 10\] s"):
         load_bus_config(bad, talos.joint_names)
+    bad.write_text(text.replace("stale_check_every: 20", "stale_check_every: 2.5"))
+    with pytest.raises(ConfigError, match=r"stale_check_every = 2.5 is outside the allowed range \[0, 10000\] ticks"):
+        load_bus_config(bad, talos.joint_names)
     text = load_bus_config("talos_dynamixel", talos.joint_names).path.read_text()
     bad.write_text(text.replace("kd_unit: 0.02}", "kd_unit: 0.02, fast_sync_read: yes please}"))
     with pytest.raises(ConfigError, match=r"models.talos-emulated.fast_sync_read must be true or false"):
@@ -1084,3 +1087,69 @@ def test_emulated_damiao_drives_disable_themselves_on_silence_without_a_next_fra
     finally:
         hw.close()
         emulator.close()
+
+
+def test_a_spoofed_reply_beside_the_drives_own_is_counted_and_neither_is_taken(talos, mit, monkeypatch):
+    """Another node sends with the host's id a frame naming the knee, at 2 rad, just before the knee's
+    own reply: two answers to one request. Neither is taken (the knee keeps its last reading, not the
+    false 2 rad), each is counted, and four such ticks in a row are a fault naming the knee."""
+    import can
+
+    from robot_ctrl.buses.mit_protocol import pack_reply
+
+    hw, emulator, clock, state = mit
+    for _ in range(10):
+        state = tick(hw, clock, hold(talos, state))
+    knee = talos.joint_names.index("leg_left_4_joint")
+    m = emulator.config.motors[knee]
+    reply = emulator._reply
+
+    def with_a_spoof_first(i):
+        if i == knee:
+            data = pack_reply(m.id, m.direction * 2.0 + m.zero_offset, 0.0, 0.0, emulator.ranges[i], emulator.formats[i],
+                              30.0, None)
+            emulator._buses[m.bus].send(can.Message(arbitration_id=0, data=data, is_extended_id=False))
+        reply(i)
+
+    monkeypatch.setattr(emulator, "_reply", with_a_spoof_first)
+    held = state.q[knee]
+    for k in range(3):
+        state = tick(hw, clock, hold(talos, state))
+        assert state.q[knee] == pytest.approx(held, abs=1e-9) and abs(state.q[knee] - 2.0) > 0.5
+        assert hw.backend.duplicate_replies == k + 1 and hw.backend.missed[knee] == k + 1
+    with pytest.raises(HardwareFault, match=r"leg_left_4_joint missed more than 3 replies in a row \(4 second answers"):
+        tick(hw, clock, hold(talos, state))
+    assert hw.report()["bus"]["duplicate_replies"] >= 4  # the fault's damping is answered twice too
+
+
+@pytest.mark.parametrize("delay", [0.005, 0.02])
+def test_replies_a_period_or_more_late_are_found_by_the_stale_checks_and_fault(talos, mit, monkeypatch, delay):
+    """The knee's replies reach the host 5 ms (one control period) or 20 ms after the drive sent them,
+    each with the state of when it was sent, ticks back to back: with nothing in the frame to tell
+    them from fresh ones, most would be read as the current state. The checks that listen with
+    nothing asked find them late, and two such checks in a row are a fault naming the knee, within
+    a few checks (the first may come before the first late reply does; the knee's old reply, first on
+    its bus, can end the wait before the bus's other drives answer, and they are named too)."""
+    hw, emulator, clock, state = mit
+    for _ in range(10):
+        state = tick(hw, clock, hold(talos, state))
+    knee = talos.joint_names.index("leg_left_4_joint")
+    bus = emulator._buses[emulator.config.motors[knee].bus]
+    reply, send = emulator._reply, bus.send
+
+    def late(i):
+        if i != knee:
+            return reply(i)
+        packed = []
+        monkeypatch.setattr(bus, "send", packed.append)  # pack it now, send it later
+        reply(i)
+        monkeypatch.setattr(bus, "send", send)
+        threading.Timer(delay, send, (packed[-1],)).start()
+
+    monkeypatch.setattr(emulator, "_reply", late)
+    every, ticks = hw.backend.config.stale_check_every, 0
+    with pytest.raises(HardwareFault, match=r"leg_left_4_joint(, [a-z_0-9]+)* answered late in 2 stale checks"):
+        while ticks < 5 * every:
+            ticks += 1
+            state = tick(hw, clock, hold(talos, state))
+    assert ticks <= 4 * every and hw.backend.late_replies >= 2

@@ -587,7 +587,8 @@ def test_a_failing_backend_latches_a_fault_and_the_report_says_what_happened(tal
     report = hw.report()
     assert report["interventions"] == {"backend_fault": 1} and report["mode"] == "off" and report["state"] == "fault"
     assert report["demanded_peak_torque_ratio"][4] == 0.123 and sum(report["demanded_peak_torque_ratio"]) == 0.123
-    assert report["bus"] == {"missing_replies": 3, "late_replies": 2, "error_frames": 0, "foreign_frames": 0}
+    assert report["bus"] == {"missing_replies": 3, "late_replies": 2, "error_frames": 0, "foreign_frames": 0,
+                              "duplicate_replies": 0}
 
     tick = Ticker(talos, limits)
     tick(hold(talos, tick.q))

@@ -14,6 +14,8 @@ entry per joint of the robot::
       leg_left_1_joint: {bus: can0, id: 1, model: leg, direction: 1, zero_offset: 0.0, gear_ratio: 1.0}
     reply_timeout_s: 0.001                # mit_can: the longest wait for a tick's replies
     max_missed_replies: 3                 # a motor's last values are held this many ticks, then a fault
+    stale_check_every: 20                 # mit_can: every this many ticks the host first listens with nothing
+                                          # asked (replies then are late), 0: never (drives that send unasked)
     drive_timeout_s: 0.1                  # mit_can: drives with a CAN timeout (Damiao) disable themselves
                                           # after this long without a command
     body_sensors: my_lab.sensors:open     # the IMU and foot F/T driver, module:function (buses/body_sensors.py)
@@ -90,6 +92,7 @@ class BusConfig:
     path: Path
     reply_timeout: float = 0.001  # [s] the longest wait for a tick's replies (mit_can)
     max_missed_replies: int = 3  # replies a motor may miss in a row (its last values held) before a fault
+    stale_check_every: int = 20  # ticks between listens with nothing asked, for late replies (mit_can; 0: never)
     drive_timeout: float = 0.1  # [s] set on drives that have a CAN timeout (mit_can, Damiao)
     body_sensors: str | None = None  # "module:function" opening the IMU and foot F/T driver (buses/body_sensors.py)
     #: Why motors without a drive-side command timeout may be enabled (None: they may not). Such a
@@ -202,6 +205,9 @@ def load_bus_config(name_or_path: str | Path, joint_names: tuple[str, ...]) -> B
     missed = data.get("max_missed_replies", BusConfig.max_missed_replies)
     _require(_integer(missed) and 0 <= missed <= 1000,
              f"max_missed_replies = {missed!r} is outside the allowed range [0, 1000]", path)
+    stale_check = data.get("stale_check_every", BusConfig.stale_check_every)
+    _require(_integer(stale_check) and 0 <= stale_check <= 10000,
+             f"stale_check_every = {stale_check!r} is outside the allowed range [0, 10000] ticks", path)
     drive_timeout = data.get("drive_timeout_s", BusConfig.drive_timeout)
     _require(_finite(drive_timeout) and 0.001 <= drive_timeout <= 10.0,
              f"drive_timeout_s = {drive_timeout!r} is outside the allowed range [0.001, 10] s", path)
@@ -250,8 +256,8 @@ def load_bus_config(name_or_path: str | Path, joint_names: tuple[str, ...]) -> B
         _require(_finite(gear) and GEAR_RATIO[0] <= gear <= GEAR_RATIO[1],
                  f"joints.{joint}.gear_ratio must be a number in [{GEAR_RATIO[0]:g}, {GEAR_RATIO[1]:g}]", path)
         motors.append(MotorMap(joint, bus, motor_id, model, int(direction), float(zero), float(gear)))
-    config = BusConfig(backend, buses, models, tuple(motors), path, float(timeout), missed, float(drive_timeout),
-                       sensors, acknowledged)
+    config = BusConfig(backend, buses, models, tuple(motors), path, float(timeout), missed, stale_check,
+                       float(drive_timeout), sensors, acknowledged)
     if backend == "mit_can":
         formats: dict[str, tuple[str, str]] = {}
         for m in motors:

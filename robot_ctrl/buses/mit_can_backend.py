@@ -22,8 +22,25 @@ Replies (the bus config's ``reply_timeout_s`` and ``max_missed_replies``): each 
 ``max_missed_replies`` in a row raises, and so does ``activate`` if a motor stays silent through
 as many enable frames (after disabling them all again). Frames still queued when a tick's commands
 go out came after their own tick's wait: they are dropped (``late_replies``), not read as this
-tick's. The state's time advances when any motor answered; when none did it
+tick's. A reply is a drive's when it comes on its bus, from the host's id (standard frame), naming
+that drive's id; the MIT formats carry no sequence number or timestamp, and a drive answers each
+frame once, so a second answer to one request within a tick's wait (a duplicate, or another node
+sending with the host's id: a spoof) makes both doubtful: neither is taken, the motor keeps its last
+values as on a missed reply (``duplicate_replies``), and once every motor has answered the frames
+already queued are still read, to find such a second answer. A frame from the host's id naming no
+drive of its bus is foreign. The state's time advances when any motor answered; when none did it
 stays, and the safety layer sees a stale state.
+
+Late replies: the formats carry no time either, so a reply delayed by a control period or more (a
+buffering adapter, a congested bus) would come in a later tick's wait and look like that tick's.
+Every ``stale_check_every`` ticks the host first listens with nothing asked, as long as the longest
+tick's wait for its replies took since the last check (at most ``reply_timeout_s``; on a healthy
+bus about ``REPLY_GAP`` more than the replies' round trip): a reply then answers an older request. On a loop that keeps its period, a late reply that a tick's wait would take as fresh comes
+within that long after the tick starts, so the check hears it; one that comes later is cut off by
+the wait's gap and found queued at the next tick. Both are late (``late_replies``), and a motor
+found late in ``STALE_CHECKS_TO_FAULT`` intervals between checks in a row raises (one may be a
+glitch). What no host can catch on these formats: a drive that answers each request with the state
+of the request before (its lateness comes with the next frame, not with time).
 
 Reply formats (``mit_protocol``, per motor model): 6-byte mini-cheetah replies carry no
 temperature or fault; CubeMars and Damiao 8-byte replies do. The state's ``temperature`` is
@@ -70,6 +87,8 @@ from robot_ctrl.robot.config import ConfigError
 #: [s] Replies follow each other back to back once they come (0.13 ms per frame at 1 Mbit/s): after
 #: this long without one, the rest of the bus's motors missed theirs.
 REPLY_GAP = 0.002
+#: A motor found answering late at this many stale checks in a row is a fault (one may be a glitch).
+STALE_CHECKS_TO_FAULT = 2
 #: [s] how long ``configure`` waits for the drives to answer a register read or write
 PARAM_WAIT = 0.1
 #: python-can interfaces on which a bus hears its own frames (udp_multicast: every socket on the group
@@ -107,6 +126,10 @@ class MitCanBackend(HardwareAdapter):
         self._t = np.zeros(self.nj)
         self._temperature = np.full(self.nj, np.nan)  # [°C] where the format reports it
         self._faults: dict[int, str] = {}
+        self._ticks = 0  # commands sent, for the stale checks
+        self._late = np.zeros(self.nj, dtype=bool)  # a reply of the motor came late since the last check
+        self._late_checks = np.zeros(self.nj, dtype=int)  # check intervals in a row in which the motor was late
+        self._longest_wait = REPLY_GAP  # [s] the longest a tick waited for its replies since the last check
         self._time = None
         self._t0 = 0.0
         self._body: JointState | None = None
@@ -167,7 +190,8 @@ class MitCanBackend(HardwareAdapter):
         return confirmed
 
     def _on_activate(self) -> None:
-        self._drain()  # register answers still queued from configure
+        self._take_late()  # register answers still queued from configure: not late replies
+        self._late[:] = False
         self._faults.clear()
         silent = np.ones(self.nj, dtype=bool)
         for _ in range(self.config.max_missed_replies + 1):  # a lost frame is asked again
@@ -200,7 +224,7 @@ class MitCanBackend(HardwareAdapter):
         fails on another; the failures raise together."""
         if not self._buses:
             return
-        self._drain()
+        self._take_late()
         q, _, _ = self.config.to_joint(self._p, self._v, self._t)
         zero = np.zeros(self.nj)
         failed = self._send_each(self._command_frames(JointCommand(q=q, dq=zero, kp=zero, kd=self.kd_damping,
@@ -237,32 +261,69 @@ class MitCanBackend(HardwareAdapter):
     def _send_commands(self, cmd: JointCommand) -> None:
         """Send ``cmd`` and take the replies; a bus-off, a failed send, a drive fault or a motor past
         ``max_missed_replies`` raises."""
-        self._drain()
+        self._take_late()
+        every = self.config.stale_check_every
+        if every and self._ticks % every == every - 1:
+            self._check_stale()
+        self._ticks += 1
         off = [name for name, bus in self._buses.items() if bus.state is can.BusState.ERROR]
         if off:
             raise RuntimeError(f"CAN bus {', '.join(off)} is bus-off (error state): check wiring and termination; "
                                "with restart-ms set the interface restarts itself")
         failed = self._send_each(self._command_frames(cmd))
+        sent = self.clock()
         replied = self._collect(expect_enabled=True)
+        self._longest_wait = max(self._longest_wait, self.clock() - sent)
         self._raise_failed(failed)
         self._raise_faults()
         self.missed = np.where(replied, 0, self.missed + 1)
         lost = self.missed > self.config.max_missed_replies
         if lost.any():
-            raise RuntimeError(f"{self._joints(lost)} missed more than {self.config.max_missed_replies} replies in a row")
+            raise RuntimeError(f"{self._joints(lost)} missed more than {self.config.max_missed_replies} replies in a row"
+                               + (f" ({self.duplicate_replies} second answers to one request so far: another node "
+                                  "answers with a drive's id?)" if self.duplicate_replies else ""))
+
+    def _check_stale(self) -> None:
+        """Listen as long as the longest tick's wait since the last check, with nothing asked (a reply
+        now answers an older tick's request); fault the motors late in this interval and the one before."""
+        self._take_late(min(self._longest_wait, self.reply_timeout))
+        self._longest_wait = 0.0
+        self._late_checks = np.where(self._late, self._late_checks + 1, 0)
+        self._late[:] = False
+        stale = self._late_checks >= STALE_CHECKS_TO_FAULT
+        if stale.any():
+            raise RuntimeError(f"{self._joints(stale)} answered late in {STALE_CHECKS_TO_FAULT} stale checks in a row "
+                               "(replies with nothing asked, or after their tick's wait): the state they report is old")
+
+    def _take_late(self, listen: float = 0.0) -> None:
+        """Drop the frames that come within ``listen`` (what is queued for 0), counting the replies
+        among them as late: this tick's replies are not asked for yet."""
+        deadline = self.clock() + listen
+        for name, bus in self._buses.items():
+            while (msg := bus.recv(timeout=max(deadline - self.clock(), 0.0))) is not None:
+                i = None if self._echo(name, msg) else self._reply_index(name, msg)
+                if i is not None:
+                    self.late_replies += 1
+                    self._late[i] = True
+
+    def _reply_index(self, name: str, msg: can.Message) -> int | None:
+        """The index of the motor whose reply ``msg`` (not an echo) is, on bus ``name``; None for an
+        error frame or a foreign frame (each counted)."""
+        if msg.is_error_frame:
+            self.error_frames += 1
+            return None
+        if msg.arbitration_id != HOST_ID or msg.is_extended_id:  # not a drive's reply to us
+            self.foreign_frames += 1
+            return None
+        i = self._index.get((name, reply_motor_id(bytes(msg.data), self._bus_format.get(name, "mit6"))))
+        if i is None:
+            self.foreign_frames += 1  # the host's id, but no motor of this bus
+        return i
 
     def _raise_faults(self) -> None:
         faults, self._faults = self._faults, {}
         if faults:
             raise RuntimeError("drive fault: " + ", ".join(f"{self.config.motors[i].joint}: {f}" for i, f in faults.items()))
-
-    def _drain(self) -> None:
-        """Drop the frames that came after the last wait ended: read as this tick's replies, they
-        would keep a motor a tick behind for good (``late_replies`` counts them)."""
-        for name, bus in self._buses.items():
-            while (msg := bus.recv(timeout=0.0)) is not None:
-                if not self._echo(name, msg):
-                    self.late_replies += 1
 
     def _joints(self, mask: np.ndarray) -> str:
         return ", ".join(self.config.motors[i].joint for i in np.flatnonzero(mask))
@@ -325,13 +386,16 @@ class MitCanBackend(HardwareAdapter):
         timeout for every motor. Returns which motors replied."""
         asked = np.ones(self.nj, dtype=bool) if asked is None else asked
         replied = np.zeros(self.nj, dtype=bool)
+        doubted = np.zeros(self.nj, dtype=bool)  # answered twice in this wait
+        before = self._p.copy(), self._v.copy(), self._t.copy(), self._temperature.copy()
         deadline = self.clock() + self.reply_timeout
         failed: dict[str, str] = {}
         for name, bus in self._buses.items():
             expected = sum(1 for i, m in enumerate(self.config.motors) if m.bus == name and asked[i])
             got, bus_deadline = 0, deadline
-            while got < expected:
-                remaining = bus_deadline - self.clock()
+            while True:
+                # once every motor answered, only what is already queued (a second answer to one request)
+                remaining = bus_deadline - self.clock() if got < expected else 0.0
                 try:
                     msg = bus.recv(timeout=max(remaining, 0.0))  # past the deadline: what is already queued
                 except (can.CanError, OSError) as exc:  # this bus only: the others' replies are still taken
@@ -342,18 +406,14 @@ class MitCanBackend(HardwareAdapter):
                 if self._echo(name, msg):
                     continue
                 bus_deadline = deadline if gap is None else min(deadline, self.clock() + gap)
-                if msg.is_error_frame:
-                    self.error_frames += 1
+                i = self._reply_index(name, msg)
+                if i is None:
                     continue
-                if msg.arbitration_id != HOST_ID or msg.is_extended_id:  # not a drive's reply to us
-                    self.foreign_frames += 1
+                if replied[i] or doubted[i]:  # a second answer to one request: which one is the drive's?
+                    self.duplicate_replies += 1
+                    doubted[i] = True
                     continue
-                data = bytes(msg.data)
-                fmt = self._bus_format.get(name, "mit6")
-                i = self._index.get((name, reply_motor_id(data, fmt)))
-                if i is None or replied[i]:
-                    continue
-                reply = unpack_reply(data, self.ranges[i], fmt)
+                reply = unpack_reply(bytes(msg.data), self.ranges[i], self.formats[i])
                 self._p[i], self._v[i], self._t[i] = reply.position, reply.velocity, reply.torque
                 if reply.temperature is not None:
                     self._temperature[i] = reply.temperature
@@ -363,6 +423,11 @@ class MitCanBackend(HardwareAdapter):
                     self._faults[i] = "disabled itself"
                 replied[i] = True
                 got += 1
+        if doubted.any():  # neither answer is taken: the motor keeps its last values, as on a missed reply
+            for mine, kept in zip((self._p, self._v, self._t, self._temperature), before):
+                mine[doubted] = kept[doubted]
+            self._faults = {i: f for i, f in self._faults.items() if not doubted[i]}
+            replied &= ~doubted
         if replied.any():
             self._body = self.body_sensors() if self.body_sensors is not None else None
             self._time = self._body.t if self._body is not None else self.clock() - self._t0

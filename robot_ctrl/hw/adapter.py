@@ -47,12 +47,14 @@ class HardwareAdapter(ABC):
         self._state = S.UNCONFIGURED
         self._closed = False
         # Bus statistics (they stay zero where there is no bus): replies missed in all, per motor in a
-        # row, replies that came after their tick's wait, error frames, frames of other senders.
+        # row, replies that came after their tick's wait, error frames, frames of other senders, second
+        # answers to one request (a duplicate or another node's spoof: neither is taken).
         self.missing_replies = 0
         self.missed = np.zeros(nj, dtype=int)
         self.late_replies = 0
         self.error_frames = 0
         self.foreign_frames = 0
+        self.duplicate_replies = 0
 
     @property
     def state(self) -> LifecycleState:

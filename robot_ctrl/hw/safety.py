@@ -305,7 +305,8 @@ class SafetyLayer(HardwareAdapter):
         return {"interventions": dict(self.interventions), "mode": self.mode.value, "state": self.state.value,
                 "demanded_peak_torque_ratio": np.round(self.demanded_peak / self.limits.effort, 3).tolist(),
                 "bus": {"missing_replies": b.missing_replies, "late_replies": b.late_replies,
-                        "error_frames": b.error_frames, "foreign_frames": b.foreign_frames}}
+                        "error_frames": b.error_frames, "foreign_frames": b.foreign_frames,
+                        "duplicate_replies": b.duplicate_replies}}
 
     # Internals (called with the lock held, except the senders) -------------------------------------
     def _intervene(self, kind: str, detail: str) -> None:
