@@ -16,7 +16,7 @@ from robot_ctrl.buses.dynamixel_backend import DynamixelBackend
 from robot_ctrl.buses.dynamixel_emulator import DynamixelEmulator
 from robot_ctrl.buses.mit_can_backend import MitCanBackend
 from robot_ctrl.buses.mit_can_emulator import MitCanEmulator
-from robot_ctrl.buses.mit_protocol import MitRanges, pack_command, pack_reply, unpack_command, unpack_reply
+from robot_ctrl.buses.mit_protocol import HOST_ID, MitRanges, pack_command, pack_reply, unpack_command, unpack_reply
 from robot_ctrl.cli import main
 from robot_ctrl.control.controllers.walking_controller import WalkingController
 from robot_ctrl.hw.adapter import HardwareFault, LifecycleError
@@ -393,27 +393,30 @@ def test_a_late_reply_is_dropped_not_read_as_the_next_ticks(talos, mit):
     assert abs(hw.read().q[0] - state.q[0]) < 1e-3  # the joint kept its last value, not the stale 1.0 rad
 
 
+def send_before_each_reply_of(monkeypatch, emulator, i, sender, position):
+    """Another node sends, from CAN id ``sender`` on motor ``i``'s bus just before each of its
+    replies, a frame shaped like that reply at ``position`` (motor side) [rad]."""
+    import can
+
+    m, reply = emulator.config.motors[i], emulator._reply
+    data = pack_reply(m.id, position, 0.0, 0.0, emulator.ranges[i], emulator.formats[i], 30.0, None)
+
+    def with_a_frame_first(j):
+        if j == i:
+            emulator._buses[m.bus].send(can.Message(arbitration_id=sender, data=data, is_extended_id=False))
+        reply(j)
+
+    monkeypatch.setattr(emulator, "_reply", with_a_frame_first)
+
+
 def test_a_foreign_frame_shaped_like_a_reply_is_counted_not_read(talos, mit, monkeypatch):
     """Another node's frame (id 0x123) whose bytes look like the hip's reply at 7 rad must not be
     taken as the hip's state: replies come to the host's id."""
-    import can
-
-    from robot_ctrl.buses.mit_protocol import pack_reply
-
     hw, emulator, clock, state = mit
     for _ in range(10):
         state = tick(hw, clock, hold(talos, state))
     hip = talos.joint_names.index("leg_left_2_joint")
-    m = emulator.config.motors[hip]
-    reply = emulator._reply
-
-    def with_a_foreign_frame_first(i):
-        if i == hip:
-            data = pack_reply(m.id, 7.0, 0.0, 0.0, emulator.ranges[i], emulator.formats[i], 30.0, None)
-            emulator._buses[m.bus].send(can.Message(arbitration_id=0x123, data=data, is_extended_id=False))
-        reply(i)
-
-    monkeypatch.setattr(emulator, "_reply", with_a_foreign_frame_first)
+    send_before_each_reply_of(monkeypatch, emulator, hip, 0x123, 7.0)
     for _ in range(5):
         state = tick(hw, clock, hold(talos, state))
         assert abs(state.q[hip] - emulator.plant.read().q[hip]) < 0.01  # the hip's own reply
@@ -1093,25 +1096,12 @@ def test_a_spoofed_reply_beside_the_drives_own_is_counted_and_neither_is_taken(t
     """Another node sends with the host's id a frame naming the knee, at 2 rad, just before the knee's
     own reply: two answers to one request. Neither is taken (the knee keeps its last reading, not the
     false 2 rad), each is counted, and four such ticks in a row are a fault naming the knee."""
-    import can
-
-    from robot_ctrl.buses.mit_protocol import pack_reply
-
     hw, emulator, clock, state = mit
     for _ in range(10):
         state = tick(hw, clock, hold(talos, state))
     knee = talos.joint_names.index("leg_left_4_joint")
     m = emulator.config.motors[knee]
-    reply = emulator._reply
-
-    def with_a_spoof_first(i):
-        if i == knee:
-            data = pack_reply(m.id, m.direction * 2.0 + m.zero_offset, 0.0, 0.0, emulator.ranges[i], emulator.formats[i],
-                              30.0, None)
-            emulator._buses[m.bus].send(can.Message(arbitration_id=0, data=data, is_extended_id=False))
-        reply(i)
-
-    monkeypatch.setattr(emulator, "_reply", with_a_spoof_first)
+    send_before_each_reply_of(monkeypatch, emulator, knee, HOST_ID, m.direction * 2.0 + m.zero_offset)
     held = state.q[knee]
     for k in range(3):
         state = tick(hw, clock, hold(talos, state))

@@ -35,9 +35,10 @@ Late replies: the formats carry no time either, so a reply delayed by a control 
 buffering adapter, a congested bus) would come in a later tick's wait and look like that tick's.
 Every ``stale_check_every`` ticks the host first listens with nothing asked, as long as the longest
 tick's wait for its replies took since the last check (at most ``reply_timeout_s``; on a healthy
-bus about ``REPLY_GAP`` more than the replies' round trip): a reply then answers an older request. On a loop that keeps its period, a late reply that a tick's wait would take as fresh comes
-within that long after the tick starts, so the check hears it; one that comes later is cut off by
-the wait's gap and found queued at the next tick. Both are late (``late_replies``), and a motor
+bus the replies' round trip, as a wait ends once every motor answered): a reply then answers an
+older request. On a loop that keeps its period, a late reply that a tick's wait would take as
+fresh comes within that long after the tick starts, so the check hears it; one that comes later
+is cut off by the wait's gap and found queued at the next tick. Both are late (``late_replies``), and a motor
 found late in ``STALE_CHECKS_TO_FAULT`` intervals between checks in a row raises (one may be a
 glitch). What no host can catch on these formats: a drive that answers each request with the state
 of the request before (its lateness comes with the next frame, not with time).
@@ -190,7 +191,7 @@ class MitCanBackend(HardwareAdapter):
         return confirmed
 
     def _on_activate(self) -> None:
-        self._take_late()  # register answers still queued from configure: not late replies
+        self._take_late()  # register answers still queued from configure: no sign of a late drive
         self._late[:] = False
         self._faults.clear()
         silent = np.ones(self.nj, dtype=bool)
