@@ -534,6 +534,44 @@ def test_ctrl_c_mid_walk_sends_damping_then_disables(monkeypatch, capsys):
     assert np.any(emulator.received[-2][1].kp > 0) and not emulator.enabled.any()  # ... then disabled
 
 
+def test_replies_are_taken_by_one_thread_at_a_time(talos, monkeypatch):
+    """The safety layer's watchdog sends damping from its own thread while a write may be in flight:
+    the two never wait on one bus at once (on a socket one could take the frame the other was told
+    was there, and block for good). Each thread's wait hears the other's replies too (second answers,
+    late at a stale check): here the backend holds on through them."""
+    hw, emulator, clock = configured_mit(talos, stale_check_every=0, max_missed_replies=1000)
+    hw.activate()
+    state = hw.read()
+    backend, waiting, most = hw.backend, [0], [0]
+    for bus in backend._buses.values():
+        def counted(timeout=None, recv=bus.recv):
+            waiting[0] += 1
+            most[0] = max(most[0], waiting[0])
+            try:
+                return recv(timeout)
+            finally:
+                waiting[0] -= 1
+        monkeypatch.setattr(bus, "recv", counted)
+    damping = hold(talos, state, kp=np.zeros(talos.nj))
+    failed = []
+
+    def writes(command):
+        try:
+            for _ in range(40):
+                backend.write(command)
+        except Exception as exc:  # noqa: BLE001 - a thread's failure is the test's
+            failed.append(exc)
+    threads = [threading.Thread(target=writes, args=(c,)) for c in (hold(talos, state), damping)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(timeout=30)
+    hw.close()
+    emulator.close()
+    assert not failed and not any(t.is_alive() for t in threads)
+    assert most[0] == 1
+
+
 def test_estop_latches_until_reset(talos, mit):
     hw, emulator, clock, state = mit
     for _ in range(30):

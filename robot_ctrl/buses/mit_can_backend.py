@@ -31,6 +31,11 @@ already queued are still read, to find such a second answer. A frame from the ho
 drive of its bus is foreign. The state's time advances when any motor answered; when none did it
 stays, and the safety layer sees a stale state.
 
+Threads: the safety layer's watchdog sends damping from a thread of its own, while a write may be in
+flight. Frames go out at once from either; replies are taken by one thread at a time (``_receiving``):
+two threads waiting on one socket would take each other's replies, and one could be left blocked
+for good on a frame the other took (python-can's receive selects, then reads a blocking socket).
+
 Late replies: the formats carry no time either, so a reply delayed by a control period or more (a
 buffering adapter, a congested bus) would come in a later tick's wait and look like that tick's.
 Every ``stale_check_every`` ticks the host first listens with nothing asked, as long as the longest
@@ -56,6 +61,7 @@ frame, and a register frame's echo never confirms its own write.
 
 from __future__ import annotations
 
+import threading
 import time
 from collections import deque
 from typing import Callable
@@ -134,6 +140,7 @@ class MitCanBackend(HardwareAdapter):
         self._time = None
         self._t0 = 0.0
         self._body: JointState | None = None
+        self._receiving = threading.Lock()  # one thread takes replies at a time (module docstring)
 
     # Lifecycle hooks ------------------------------------------------------------------------------
     def _on_configure(self) -> None:
@@ -299,13 +306,14 @@ class MitCanBackend(HardwareAdapter):
     def _take_late(self, listen: float = 0.0) -> None:
         """Drop the frames that come within ``listen`` (what is queued for 0), counting the replies
         among them as late: this tick's replies are not asked for yet."""
-        deadline = self.clock() + listen
-        for name, bus in self._buses.items():
-            while (msg := bus.recv(timeout=max(deadline - self.clock(), 0.0))) is not None:
-                i = None if self._echo(name, msg) else self._reply_index(name, msg)
-                if i is not None:
-                    self.late_replies += 1
-                    self._late[i] = True
+        with self._receiving:
+            deadline = self.clock() + listen
+            for name, bus in self._buses.items():
+                while (msg := bus.recv(timeout=max(deadline - self.clock(), 0.0))) is not None:
+                    i = None if self._echo(name, msg) else self._reply_index(name, msg)
+                    if i is not None:
+                        self.late_replies += 1
+                        self._late[i] = True
 
     def _reply_index(self, name: str, msg: can.Message) -> int | None:
         """The index of the motor whose reply ``msg`` (not an echo) is, on bus ``name``; None for an
@@ -385,6 +393,10 @@ class MitCanBackend(HardwareAdapter):
         they are disabled) are kept in ``_faults``. A bus's wait ends ``gap`` after its last reply
         (a tick's replies come back to back); lifecycle calls (``gap=None``) wait the whole reply
         timeout for every motor. Returns which motors replied."""
+        with self._receiving:
+            return self._take_replies(asked, expect_enabled, gap)
+
+    def _take_replies(self, asked: np.ndarray | None, expect_enabled: bool, gap: float | None) -> np.ndarray:
         asked = np.ones(self.nj, dtype=bool) if asked is None else asked
         replied = np.zeros(self.nj, dtype=bool)
         doubted = np.zeros(self.nj, dtype=bool)  # answered twice in this wait
