@@ -855,6 +855,45 @@ def test_dynamixel_protective_limits_are_written_at_configure_and_act(talos):
         emulator.close()
 
 
+@pytest.mark.parametrize("answer", ["spoofed", "twice", "twice_last"])
+def test_a_dynamixel_servo_that_answers_unasked_is_not_read_and_faults(talos, monkeypatch, answer):
+    """A status packet with the knee's id before its own (another node's spoof, its position 1 rad
+    off), the knee's answer twice, or the last servo's twice (the second then waits, unasked, for
+    the next tick): the SDK would take the first and pass over the other unseen. Neither is taken:
+    the joint keeps its last values, and two ticks in a row of it are a fault naming it."""
+    hw, emulator, clock = configured_dynamixel(talos)
+    try:
+        hw.activate()
+        state = hw.read()
+        motors = hw.backend.config.motors
+        joint = "leg_left_4_joint" if answer != "twice_last" else next(
+            m.joint for m in reversed(motors) if m.bus == motors[0].bus)
+        i = talos.joint_names.index(joint)
+        servo, true_q = motors[i].id, state.q[i]
+        handle = emulator._handle
+
+        def answers(port, sender, instruction, params):
+            reply = handle(port, sender, instruction, params)
+            if instruction != dxl.INST_SYNC_READ or servo not in params[4:]:
+                return reply
+            registers = bytearray(emulator._load(i, dxl.PRESENT, dxl.PRESENT_LENGTH))
+            own = dxl.status(servo, bytes(registers))
+            position = dxl.to_signed(int.from_bytes(registers[6:10], "little"), 4)
+            registers[6:10] = dxl.to_bytes(position + int(round(1.0 / emulator.units.position[i])), 4)
+            spoof = dxl.status(servo, bytes(registers))
+            assert own in reply
+            return reply.replace(own, spoof + own if answer == "spoofed" else own + own)
+        monkeypatch.setattr(emulator, "_handle", answers)
+        with pytest.raises(HardwareFault, match=f"{joint} answered unasked"):
+            for _ in range(20):
+                state = tick(hw, clock, hold(talos, state))
+                assert abs(state.q[i] - true_q) < 0.05  # never the spoof's
+        assert hw.backend.duplicate_replies + hw.backend.late_replies >= 2
+    finally:
+        hw.close()
+        emulator.close()
+
+
 def test_an_expired_dynamixel_bus_watchdog_fails_the_run(talos):
     """A host that stalls past the servos' bus watchdog (100 ms) leaves them stopped where they
     were, torque on, ignoring goals (the X-series e-manual): the next status read says so instead

@@ -34,6 +34,14 @@ Body sensors (base pose, IMU, foot forces) come from ``body_sensors`` as for the
 failed Sync Read keeps the previous values and timestamp (``missing_replies`` counts it); more than
 the config's ``max_missed_replies`` in a row fail the read, naming the port (a fault, as a silent
 MIT motor).
+
+Fresh answers or none (``DynamixelPort``: what Protocol 2.0 carries and how the SDK matches): a
+status packet a Sync Read passed over names a servo that answered twice (a duplicate, or another
+node sending with its id: a spoof) and neither answer is taken: the servo keeps its last values
+(``duplicate_replies``). Status packets waiting before a tick's first instruction came with nothing
+asked (later than their wait, or a second answer after the last one taken): ``late_replies``, bytes
+that make no status packet of a servo on the port ``foreign_frames``. A servo found answering unasked
+in ``UNASKED_TICKS_TO_FAULT`` ticks in a row fails the write, naming it (one may be a glitch).
 """
 
 from __future__ import annotations
@@ -50,6 +58,8 @@ from robot_ctrl.buses.dynamixel_port import DynamixelPort
 from robot_ctrl.hw.adapter import HardwareAdapter
 from robot_ctrl.hw.types import JointCommand, JointState
 
+#: A servo found answering unasked in this many ticks in a row is a fault (one may be a glitch).
+UNASKED_TICKS_TO_FAULT = 2
 ERROR_CHECK_TICKS = 40  # [ticks] between reads of the Hardware Error Status and the Bus Watchdog
 #: [°C] above the safety layer's fault temperature (80 °C): the layer's damping acts first, the
 #: servo's own shutdown is the backstop.
@@ -92,6 +102,8 @@ class DynamixelBackend(HardwareAdapter):
         self._open = False
         self._ticks = 0
         self._missed_reads = 0  # Sync Reads in a row that a servo did not answer
+        self._unasked = np.zeros(self.nj, dtype=bool)  # the servo answered unasked since the last tick
+        self._unasked_ticks = np.zeros(self.nj, dtype=int)  # ticks in a row in which it did
 
     @property
     def drive_timeout_joints(self) -> tuple[str, ...]:
@@ -164,6 +176,7 @@ class DynamixelBackend(HardwareAdapter):
             port.set(m, dxl.BUS_WATCHDOG, self.watchdog_units, 1)  # read back: a dead host leaves it stopped in place
         self._sync_read()
         self._ticks = 0
+        self._unasked[:], self._unasked_ticks[:] = False, 0  # what the lifecycle's own reads left
 
     def _on_deactivate(self) -> None:
         """Torque off on every servo of every port, whatever fails on another."""
@@ -190,6 +203,13 @@ class DynamixelBackend(HardwareAdapter):
     # Read / write ---------------------------------------------------------------------------------
     def _write(self, cmd: JointCommand) -> None:
         self._send(cmd)
+        self._unasked_ticks = np.where(self._unasked, self._unasked_ticks + 1, 0)
+        self._unasked[:] = False
+        stale = self._unasked_ticks >= UNASKED_TICKS_TO_FAULT
+        if stale.any():
+            joints = ", ".join(self.config.motors[i].joint for i in np.flatnonzero(stale))
+            raise RuntimeError(f"{joints} answered unasked (late, twice or spoofed) in {UNASKED_TICKS_TO_FAULT} ticks in a "
+                               "row: the state they report cannot be trusted")
         self._ticks += 1
         if self._ticks % ERROR_CHECK_TICKS == 0:
             self._check_servos()
@@ -231,14 +251,29 @@ class DynamixelBackend(HardwareAdapter):
         raw = np.round(goal / self.units.position).astype(np.int64)
         new_gains = gains != self._gains
 
-        def send(port: DynamixelPort) -> None:
+        def send(port: DynamixelPort) -> list[int | None]:
+            queued = port.take_queued()  # before the SDK's next instruction clears them unseen
             if new_gains:
                 port.write_gains(kp_reg, kd_reg)
             port.write_goals(raw)
+            return queued
 
         self._gains = None  # unknown until every port has taken them
-        self._each_port(send)
+        queued = self._each_port(send)
         self._gains = gains
+        for port, ids in zip(self.ports, queued):
+            for servo in ids:
+                i = self._on_port(port, servo)
+                if i is None:
+                    self.foreign_frames += 1
+                else:
+                    self.late_replies += 1
+                    self._unasked[i] = True
+
+    @staticmethod
+    def _on_port(port: DynamixelPort, servo: int | None) -> int | None:
+        """The joint index of ``servo`` on ``port``; None for another id or no status packet."""
+        return port.index[port.ids.index(servo)] if servo in port.ids else None
 
     def _sync_read(self) -> None:
         """Every port's present state; if a servo did not answer, the previous values and time stay."""
@@ -252,8 +287,13 @@ class DynamixelBackend(HardwareAdapter):
             return
         self._missed_reads = 0
         for port, registers in zip(self.ports, answers):
-            i = port.index
-            current, velocity, position, temperature = registers.T
+            doubted = [self._on_port(port, servo) for servo in port.last_skipped]
+            self.duplicate_replies += sum(i is not None for i in doubted)
+            self.foreign_frames += sum(i is None for i in doubted)
+            taken = [k for k, i in enumerate(port.index) if i not in doubted]  # a doubted servo keeps its last values
+            i = [port.index[k] for k in taken]
+            self._unasked[[d for d in doubted if d is not None]] = True
+            current, velocity, position, temperature = registers[taken].T
             self._temperature[i] = temperature
             self._t[i] = current * self.units.torque[i]
             self._v[i] = velocity * self.units.velocity[i]

@@ -8,6 +8,14 @@ split over several ports spends the longest port's time per tick, not their sum.
 one status packet that the servos fill one after the other, instead of one status packet per
 servo, each with its own header and turnaround.
 
+Replies the host did not take: Protocol 2.0 status packets carry the servo's id and a CRC, no
+sequence number or time. The SDK clears the port's input before each instruction and takes, per
+servo asked, the first status packet with its id within the packet timeout, passing over any other
+on its way, silently. So a port keeps what the SDK passes over (``last_skipped``: ids of packets a
+Sync Read passed over, a servo's second answer, or the genuine one behind a spoof) and, before a
+tick's first instruction, what came with nothing asked (``take_queued``: a reply later than its
+wait, or a second answer after the last one taken). ``DynamixelBackend`` counts and acts on both.
+
 A pseudo-terminal (``/dev/pts/N``) is a servo emulator in software, not a wire: its replies wait on
 the emulating program's scheduling (in the same interpreter, on its lock), so the SDK's packet
 timeout (16 ms latency timer × 2 + 2 ms + the bytes' time) gets ``EMULATED_REPLY_MARGIN`` more
@@ -20,6 +28,7 @@ import os
 
 import dynamixel_sdk as sdk
 import numpy as np
+from dynamixel_sdk.protocol2_packet_handler import PKT_ERROR, PKT_ID, PKT_PARAMETER0, Protocol2PacketHandler
 
 from robot_ctrl.buses import dynamixel_protocol as dxl
 from robot_ctrl.buses.bus_config import MotorMap
@@ -34,6 +43,25 @@ class _EmulatedPortHandler(sdk.PortHandler):
     def setPacketTimeout(self, packet_length):
         super().setPacketTimeout(packet_length)
         self.packet_timeout += EMULATED_REPLY_MARGIN
+
+
+class _SkipKeepingPacketHandler(Protocol2PacketHandler):
+    """The SDK's Protocol 2.0 packet handler, keeping in ``skipped`` the ids of the status packets a
+    Sync Read's wait for one servo passed over (the SDK's ``readRx`` drops them unseen)."""
+
+    def __init__(self):
+        super().__init__()
+        self.skipped: list[int] = []
+
+    def readRx(self, port, dxl_id, length):
+        while True:
+            rxpacket, result = self.rxPacket(port, False)
+            if result != sdk.COMM_SUCCESS or rxpacket[PKT_ID] == dxl_id:
+                break
+            self.skipped.append(rxpacket[PKT_ID])
+        if result != sdk.COMM_SUCCESS:
+            return [], result, 0
+        return rxpacket[PKT_PARAMETER0 + 1: PKT_PARAMETER0 + 1 + length], result, rxpacket[PKT_ERROR]
 
 
 def is_pseudo_terminal(device: str) -> bool:
@@ -51,6 +79,7 @@ class DynamixelPort:
         self.motors = [m for _, m in motors]
         self.ids = [m.id for m in self.motors]
         self.port = None
+        self.last_skipped: list[int] = []  # ids of the status packets the last read_present passed over
 
     def open(self) -> None:
         port = (_EmulatedPortHandler if is_pseudo_terminal(self.device) else sdk.PortHandler)(self.device)
@@ -63,7 +92,7 @@ class DynamixelPort:
         self.port = port
         if not self.port.setBaudRate(self.baudrate):
             raise OSError(f"cannot set {self.device} to {self.baudrate} baud")
-        self.packet = sdk.PacketHandler(2.0)
+        self.packet = _SkipKeepingPacketHandler()
         self.goal = sdk.GroupSyncWrite(self.port, self.packet, dxl.GOAL_POSITION, 4)
         self.gains = sdk.GroupSyncWrite(self.port, self.packet, dxl.GAINS, 6)
         self.present = sdk.GroupSyncRead(self.port, self.packet, dxl.PRESENT, dxl.PRESENT_LENGTH)
@@ -97,8 +126,11 @@ class DynamixelPort:
 
     def read_present(self) -> np.ndarray | None:
         """(current, velocity, position, temperature) registers per servo of this port, or None if
-        a servo did not answer."""
-        if (self.present.fastSyncRead() if self.fast else self.present.txRxPacket()) != sdk.COMM_SUCCESS:
+        a servo did not answer; ``last_skipped`` then says which status packets it passed over."""
+        self.packet.skipped = []
+        answered = self.present.fastSyncRead() if self.fast else self.present.txRxPacket()
+        self.last_skipped = self.packet.skipped
+        if answered != sdk.COMM_SUCCESS:
             return None
         if not all(self.present.isAvailable(s, dxl.PRESENT, dxl.PRESENT_LENGTH) for s in self.ids):
             return None
@@ -106,6 +138,17 @@ class DynamixelPort:
                           dxl.to_signed(self.present.getData(s, dxl.PRESENT + 2, 4), 4),
                           dxl.to_signed(self.present.getData(s, dxl.PRESENT + 6, 4), 4),
                           self.present.getData(s, dxl.PRESENT + dxl.TEMPERATURE_OFFSET, 1)] for s in self.ids])
+
+    def take_queued(self) -> list[int | None]:
+        """The ids of the status packets waiting with nothing asked (None for bytes that make no
+        status packet), taken off the port: call it before a tick's first instruction."""
+        waiting = self.port.getBytesAvailable()
+        if not waiting:
+            return []
+        buffer, ids = bytearray(self.port.readPort(waiting)), []
+        while (pkt := dxl.parse(buffer)) is not None:
+            ids.append(pkt[0] if pkt[1] == dxl.INST_STATUS else None)
+        return ids or [None]
 
     def check_fast_sync_read(self) -> None:
         """With ``fast``, raise naming the port if its servos answer a Sync Read but not a Fast Sync
