@@ -3,6 +3,7 @@ safety layer's behaviour, checked on the emulator side of the bus."""
 
 import dataclasses
 import json
+import os
 import threading
 import time
 import uuid
@@ -10,6 +11,7 @@ import uuid
 import numpy as np
 import pytest
 
+from robot_ctrl.buses import dynamixel_port
 from robot_ctrl.buses import dynamixel_protocol as dxl
 from robot_ctrl.buses.bus_config import HW_CONFIGS, load_bus_config
 from robot_ctrl.buses.dynamixel_backend import DynamixelBackend
@@ -889,6 +891,38 @@ def test_a_dynamixel_servo_that_answers_unasked_is_not_read_and_faults(talos, mo
                 state = tick(hw, clock, hold(talos, state))
                 assert abs(state.q[i] - true_q) < 0.05  # never the spoof's
         assert hw.backend.duplicate_replies + hw.backend.late_replies >= 2
+    finally:
+        hw.close()
+        emulator.close()
+
+
+def test_a_dynamixel_answer_that_comes_after_its_wait_is_found_at_the_next_tick_and_faults(talos, monkeypatch):
+    """The knee's answer withheld from its Sync Read and sent after the SDK gave up on it: the read
+    misses, and the answer, waiting when the next tick starts, is late; two ticks in a row of it are
+    a fault naming the knee before its missed reads are (the SDK alone would clear it unseen)."""
+    monkeypatch.setattr(dynamixel_port, "EMULATED_REPLY_MARGIN", 0.0)  # give up after the SDK's own timeout
+    hw, emulator, clock = configured_dynamixel(talos)
+    try:
+        hw.activate()
+        state = hw.read()
+        i = talos.joint_names.index("leg_left_4_joint")
+        motor = hw.backend.config.motors[i]
+        master = emulator._fds[2 * list(emulator.config.buses).index(motor.bus)]
+        handle, withheld = emulator._handle, []
+
+        def without_the_knee(port, sender, instruction, params):
+            reply = handle(port, sender, instruction, params)
+            if instruction != dxl.INST_SYNC_READ or motor.id not in params[4:]:
+                return reply
+            own = dxl.status(motor.id, emulator._load(i, dxl.PRESENT, dxl.PRESENT_LENGTH))
+            withheld.append(own)
+            return reply.replace(own, b"")
+        monkeypatch.setattr(emulator, "_handle", without_the_knee)
+        with pytest.raises(HardwareFault, match="leg_left_4_joint answered unasked"):
+            for _ in range(5):
+                state = tick(hw, clock, hold(talos, state))
+                os.write(master, withheld.pop())  # after the tick's wait
+        assert hw.backend.late_replies == 2 and hw.backend.missing_replies == 2
     finally:
         hw.close()
         emulator.close()
