@@ -262,18 +262,16 @@ class DynamixelBackend(HardwareAdapter):
         queued = self._each_port(send)
         self._gains = gains
         for port, ids in zip(self.ports, queued):
-            for servo in ids:
-                i = self._on_port(port, servo)
-                if i is None:
-                    self.foreign_frames += 1
-                else:
-                    self.late_replies += 1
-                    self._unasked[i] = True
+            self.late_replies += len(self._answered_unasked(port, ids))
 
-    @staticmethod
-    def _on_port(port: DynamixelPort, servo: int | None) -> int | None:
-        """The joint index of ``servo`` on ``port``; None for another id or no status packet."""
-        return port.index[port.ids.index(servo)] if servo in port.ids else None
+    def _answered_unasked(self, port: DynamixelPort, ids: list[int | None]) -> list[int]:
+        """The joints of ``port`` whose servos sent the status packets ``ids`` unasked, marked for
+        the fault count; what names no servo of the port is counted foreign."""
+        joints = [port.joint_index(servo) for servo in ids]
+        self.foreign_frames += sum(i is None for i in joints)
+        joints = [i for i in joints if i is not None]
+        self._unasked[joints] = True
+        return joints
 
     def _sync_read(self) -> None:
         """Every port's present state; if a servo did not answer, the previous values and time stay."""
@@ -287,12 +285,10 @@ class DynamixelBackend(HardwareAdapter):
             return
         self._missed_reads = 0
         for port, registers in zip(self.ports, answers):
-            doubted = [self._on_port(port, servo) for servo in port.last_skipped]
-            self.duplicate_replies += sum(i is not None for i in doubted)
-            self.foreign_frames += sum(i is None for i in doubted)
+            doubted = self._answered_unasked(port, port.last_skipped)
+            self.duplicate_replies += len(doubted)
             taken = [k for k, i in enumerate(port.index) if i not in doubted]  # a doubted servo keeps its last values
             i = [port.index[k] for k in taken]
-            self._unasked[[d for d in doubted if d is not None]] = True
             current, velocity, position, temperature = registers[taken].T
             self._temperature[i] = temperature
             self._t[i] = current * self.units.torque[i]

@@ -139,6 +139,10 @@ class DynamixelPort:
                           dxl.to_signed(self.present.getData(s, dxl.PRESENT + 6, 4), 4),
                           self.present.getData(s, dxl.PRESENT + dxl.TEMPERATURE_OFFSET, 1)] for s in self.ids])
 
+    def joint_index(self, servo: int | None) -> int | None:
+        """The robot joint index of servo id ``servo`` on this port; None for another id (or None)."""
+        return self.index[self.ids.index(servo)] if servo in self.ids else None
+
     def take_queued(self) -> list[int | None]:
         """The ids of the status packets waiting with nothing asked (None for bytes that make no
         status packet), taken off the port: call it before a tick's first instruction."""
